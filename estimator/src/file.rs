@@ -1,0 +1,451 @@
+//! The canonical parameter file, `params.toml` (`std` feature).
+//!
+//! One versioned, self-describing TOML file carries the rotor count, the fitted curve (degree,
+//! scaling, coefficients in the scaled basis the estimator evaluates and in the physical monomial
+//! basis for people, validity range, supply voltage), the thrust limit and the voltage it was
+//! taken at, the fit's statistics and the provenance (input file hashes, date, tool version).
+//! Unknown keys and a newer schema version are errors that name the line and column.
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use crate::params::{Params, ThrustLimit};
+use crate::{EstimateError, PolyCurve};
+
+/// Value of the `schema` key.
+pub const SCHEMA: &str = "hoverbench.params";
+/// Schema version this crate writes and the newest it reads.
+pub const SCHEMA_VERSION: u32 = 1;
+
+/// `params.toml` as a Rust value.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParamsFile {
+    /// Always [`SCHEMA`].
+    pub schema: String,
+    /// Always [`SCHEMA_VERSION`] when written by this version.
+    pub schema_version: u32,
+    /// Rotors sharing the take-off mass.
+    pub rotor_count: u8,
+    /// The fitted curve.
+    pub curve: CurveSection,
+    /// Thrust limit at minimum battery voltage, when a limit sweep was given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub thrust_limit: Option<ThrustLimitSection>,
+    /// Statistics of the fit.
+    pub fit: FitSection,
+    /// Where the numbers came from.
+    pub provenance: Provenance,
+}
+
+/// `[curve]`: the fitted polynomial.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CurveSection {
+    /// Column fitted as abscissa (`thrust_g` for a rig characterisation).
+    pub x: String,
+    /// Column fitted as ordinate (`power_w` for a rig characterisation).
+    pub y: String,
+    /// Polynomial degree.
+    pub degree: usize,
+    /// Centre of the abscissa scaling, in x's unit.
+    pub center: f64,
+    /// Half-width of the abscissa scaling, in x's unit.
+    pub scale: f64,
+    /// Coefficients of `y = Σ c_k t^k`, `t = (x − center)/scale`: what the estimator evaluates.
+    pub coefficients_scaled: Vec<f64>,
+    /// The same polynomial in ascending powers of x itself (for a thrust curve: W per g^k),
+    /// for people and other tools; the estimator does not read it.
+    pub coefficients_monomial: Vec<f64>,
+    /// Lowest x measured.
+    pub valid_min: f64,
+    /// Highest x measured.
+    pub valid_max: f64,
+    /// Supply voltage of the sweep, V (absent for generic fits of other quantities).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub supply_voltage_v: Option<f64>,
+}
+
+/// `[thrust_limit]`: the paper's `m_L`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ThrustLimitSection {
+    /// Sustained maximum thrust of one rotor, g.
+    pub per_rotor_g: f64,
+    /// Its standard uncertainty, g.
+    pub uncertainty_g: f64,
+    /// `m_L` = rotor count × per-rotor limit, kg.
+    pub total_kg: f64,
+    /// Supply voltage of the limit sweep, V.
+    pub supply_voltage_v: f64,
+    /// How it was found: `plateau` or `top_of_range`.
+    pub method: String,
+}
+
+/// `[fit]`: how well the polynomial fits.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FitSection {
+    /// Points fitted.
+    pub n_points: usize,
+    /// Root-mean-square residual, in y's unit.
+    pub rmse: f64,
+    /// Coefficient of determination.
+    pub r_squared: f64,
+    /// Largest absolute residual, in y's unit.
+    pub max_abs_residual: f64,
+    /// x where it occurs.
+    pub max_residual_at: f64,
+    /// Condition number of the scaled design matrix.
+    pub condition_number: f64,
+    /// Standard errors of `coefficients_scaled`.
+    pub coefficient_std_errors_scaled: Vec<f64>,
+    /// Warnings the fit raised, as text.
+    #[serde(default)]
+    pub warnings: Vec<String>,
+}
+
+/// `[provenance]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Provenance {
+    /// The nominal sweep fitted.
+    pub input_file: String,
+    /// Its SHA-256, hex.
+    pub input_sha256: String,
+    /// The limit sweep, when given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub limit_input_file: Option<String>,
+    /// Its SHA-256, hex.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub limit_input_sha256: Option<String>,
+    /// When the file was written (RFC 3339).
+    pub created: String,
+    /// Tool and version that wrote it.
+    pub tool: String,
+}
+
+/// Why a parameter file could not be read.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ParamsFileError {
+    /// The file could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// Malformed TOML, an unknown key, a missing key or a wrongly typed value.
+    #[error("{}line {line}, column {column}: {message}", path_prefix(path.as_deref()))]
+    Syntax {
+        /// The file, when read from one.
+        path: Option<PathBuf>,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        column: usize,
+        /// What the parser said.
+        message: String,
+    },
+    /// Not a hoverbench parameter file.
+    #[error("{}not a hoverbench parameter file (schema = {found:?}, expected {SCHEMA:?})", path_prefix(path.as_deref()))]
+    Schema {
+        /// The file.
+        path: Option<PathBuf>,
+        /// The `schema` value found.
+        found: String,
+    },
+    /// Written by a newer hoverbench.
+    #[error(
+        "{}schema_version {found} is newer than this hoverbench reads ({SCHEMA_VERSION}): upgrade hoverbench",
+        path_prefix(path.as_deref())
+    )]
+    NewerSchema {
+        /// The file.
+        path: Option<PathBuf>,
+        /// Version found.
+        found: i64,
+    },
+    /// Values that parse but make no sense.
+    #[error("{}{source}", path_prefix(path.as_deref()))]
+    Invalid {
+        /// The file.
+        path: Option<PathBuf>,
+        /// What is wrong.
+        source: EstimateError,
+    },
+    /// The file holds a fit of other quantities than thrust → power.
+    #[error(
+        "{}the curve is {y} vs {x}, not power_w vs thrust_g: it is a generic fit, not a rig characterisation",
+        path_prefix(path.as_deref())
+    )]
+    NotAThrustCurve {
+        /// The file.
+        path: Option<PathBuf>,
+        /// Its x column.
+        x: String,
+        /// Its y column.
+        y: String,
+    },
+    /// The scaled coefficients disagree with the stated degree.
+    #[error("{}curve.degree is {degree} but curve.coefficients_scaled has {len} entries", path_prefix(path.as_deref()))]
+    DegreeMismatch {
+        /// The file.
+        path: Option<PathBuf>,
+        /// Stated degree.
+        degree: usize,
+        /// Coefficients given.
+        len: usize,
+    },
+}
+
+fn path_prefix(path: Option<&Path>) -> String {
+    path.map(|p| format!("{}: ", p.display()))
+        .unwrap_or_default()
+}
+
+fn line_column(text: &str, offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line = before.matches('\n').count() + 1;
+    let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    (line, column)
+}
+
+impl ParamsFile {
+    /// Parses and checks `params.toml` text.
+    pub fn from_toml_str(text: &str) -> Result<Self, ParamsFileError> {
+        Self::parse(text, None)
+    }
+
+    /// Reads and checks a `params.toml` file.
+    pub fn load(path: &Path) -> Result<Self, ParamsFileError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ParamsFileError::Io {
+            path: path.to_owned(),
+            source,
+        })?;
+        Self::parse(&text, Some(path))
+    }
+
+    fn parse(text: &str, path: Option<&Path>) -> Result<Self, ParamsFileError> {
+        let syntax = |e: toml::de::Error| {
+            let (line, column) = e.span().map_or((1, 1), |s| line_column(text, s.start));
+            ParamsFileError::Syntax {
+                path: path.map(Path::to_owned),
+                line,
+                column,
+                message: e.message().trim().to_owned(),
+            }
+        };
+        // Check the schema and version before the strict parse, so that a file from a newer
+        // hoverbench says so instead of complaining about the keys it added.
+        let table: toml::Table = toml::from_str(text).map_err(syntax)?;
+        let found = table
+            .get("schema")
+            .and_then(|v| v.as_str())
+            .unwrap_or("(missing)");
+        if found != SCHEMA {
+            return Err(ParamsFileError::Schema {
+                path: path.map(Path::to_owned),
+                found: found.to_owned(),
+            });
+        }
+        if let Some(v) = table
+            .get("schema_version")
+            .and_then(toml::Value::as_integer)
+        {
+            if v > i64::from(SCHEMA_VERSION) {
+                return Err(ParamsFileError::NewerSchema {
+                    path: path.map(Path::to_owned),
+                    found: v,
+                });
+            }
+        }
+        let file: Self = toml::from_str(text).map_err(syntax)?;
+        if file.curve.coefficients_scaled.len() != file.curve.degree + 1 {
+            return Err(ParamsFileError::DegreeMismatch {
+                path: path.map(Path::to_owned),
+                degree: file.curve.degree,
+                len: file.curve.coefficients_scaled.len(),
+            });
+        }
+        file.curve_checked()
+            .map_err(|source| ParamsFileError::Invalid {
+                path: path.map(Path::to_owned),
+                source,
+            })?;
+        Ok(file)
+    }
+
+    /// Renders the file as TOML.
+    pub fn to_toml_string(&self) -> String {
+        // Serialising plain structs of numbers, strings and vectors cannot fail.
+        let body = toml::to_string_pretty(self).unwrap_or_else(|e| format!("# {e}\n"));
+        format!(
+            "# hoverbench rig parameters: per-rotor electrical power vs thrust, thrust limit, provenance.\n\
+             # Evaluate the curve as  y = sum_k coefficients_scaled[k] * t^k,  t = (x - center) / scale.\n\n{body}"
+        )
+    }
+
+    fn curve_checked(&self) -> Result<PolyCurve, EstimateError> {
+        if self.rotor_count == 0 {
+            return Err(EstimateError::NoRotors);
+        }
+        PolyCurve::new(
+            &self.curve.coefficients_scaled,
+            self.curve.center,
+            self.curve.scale,
+            (self.curve.valid_min, self.curve.valid_max),
+            self.curve.supply_voltage_v,
+        )
+    }
+
+    /// The estimator's view of the file. Fails when the file holds a generic fit rather than a
+    /// thrust → power curve.
+    pub fn to_params(&self) -> Result<Params, ParamsFileError> {
+        if self.curve.x != "thrust_g" || self.curve.y != "power_w" {
+            return Err(ParamsFileError::NotAThrustCurve {
+                path: None,
+                x: self.curve.x.clone(),
+                y: self.curve.y.clone(),
+            });
+        }
+        let invalid = |source| ParamsFileError::Invalid { path: None, source };
+        let curve = self.curve_checked().map_err(invalid)?;
+        let thrust_limit = match &self.thrust_limit {
+            None => None,
+            Some(l) => {
+                crate::curve::require_positive("thrust_limit.per_rotor_g", l.per_rotor_g)
+                    .map_err(invalid)?;
+                Some(ThrustLimit {
+                    per_rotor_g: l.per_rotor_g,
+                    uncertainty_g: l.uncertainty_g,
+                    supply_voltage_v: l.supply_voltage_v,
+                })
+            }
+        };
+        Ok(Params {
+            rotor_count: self.rotor_count,
+            curve,
+            thrust_limit,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> ParamsFile {
+        ParamsFile {
+            schema: SCHEMA.into(),
+            schema_version: SCHEMA_VERSION,
+            rotor_count: 4,
+            curve: CurveSection {
+                x: "thrust_g".into(),
+                y: "power_w".into(),
+                degree: 2,
+                center: 130.0,
+                scale: 130.0,
+                coefficients_scaled: vec![20.0, 25.0, 5.0],
+                coefficients_monomial: vec![1.0, 2.0, 3.0],
+                valid_min: 0.0,
+                valid_max: 260.0,
+                supply_voltage_v: Some(12.5),
+            },
+            thrust_limit: Some(ThrustLimitSection {
+                per_rotor_g: 150.0,
+                uncertainty_g: 0.5,
+                total_kg: 0.6,
+                supply_voltage_v: 9.0,
+                method: "plateau".into(),
+            }),
+            fit: FitSection {
+                n_points: 27,
+                rmse: 0.01,
+                r_squared: 0.9999,
+                max_abs_residual: 0.02,
+                max_residual_at: 250.0,
+                condition_number: 12.0,
+                coefficient_std_errors_scaled: vec![0.1, 0.1, 0.1],
+                warnings: vec![],
+            },
+            provenance: Provenance {
+                input_file: "sweep.csv".into(),
+                input_sha256: "00".into(),
+                limit_input_file: None,
+                limit_input_sha256: None,
+                created: "2026-11-22T00:00:00Z".into(),
+                tool: "hoverbench test".into(),
+            },
+        }
+    }
+
+    #[test]
+    fn round_trips_through_toml() {
+        let f = sample();
+        let text = f.to_toml_string();
+        assert_eq!(ParamsFile::from_toml_str(&text).unwrap(), f);
+        let p = f.to_params().unwrap();
+        assert!((p.thrust_limit_kg().unwrap() - 0.6).abs() < 1e-12);
+    }
+
+    #[test]
+    fn unknown_key_is_an_error_with_its_line() {
+        let text = sample()
+            .to_toml_string()
+            .replace("[fit]\n", "[fit]\nbogus = 1\n");
+        let line = text.lines().position(|l| l == "bogus = 1").unwrap() + 1;
+        match ParamsFile::from_toml_str(&text).unwrap_err() {
+            ParamsFileError::Syntax {
+                line: l, message, ..
+            } => {
+                assert_eq!(l, line);
+                assert!(message.contains("bogus"), "{message}");
+            }
+            e => panic!("unexpected {e}"),
+        }
+    }
+
+    #[test]
+    fn newer_schema_and_foreign_files_are_refused() {
+        let text = sample()
+            .to_toml_string()
+            .replace("schema_version = 1", "schema_version = 2\nnew_key = 3");
+        assert!(matches!(
+            ParamsFile::from_toml_str(&text),
+            Err(ParamsFileError::NewerSchema { found: 2, .. })
+        ));
+        assert!(matches!(
+            ParamsFile::from_toml_str("schema = \"other\"\n"),
+            Err(ParamsFileError::Schema { .. })
+        ));
+    }
+
+    #[test]
+    fn generic_fit_is_not_a_thrust_curve() {
+        let mut f = sample();
+        f.curve.x = "rpm".into();
+        assert!(matches!(
+            f.to_params(),
+            Err(ParamsFileError::NotAThrustCurve { .. })
+        ));
+    }
+
+    #[test]
+    fn degree_mismatch_is_reported() {
+        let mut f = sample();
+        f.curve.degree = 5;
+        let text = f.to_toml_string();
+        assert!(matches!(
+            ParamsFile::from_toml_str(&text),
+            Err(ParamsFileError::DegreeMismatch {
+                degree: 5,
+                len: 3,
+                ..
+            })
+        ));
+    }
+}

@@ -1,0 +1,514 @@
+//! Reading rig sweeps and other tables of measurements into numeric columns.
+//!
+//! hoverbench's own sweep CSV (written by `rig-host`) has a `#` comment block, then a header of
+//! unit-suffixed names (`thrust_g`, `power_w`, `voltage_v`, `current_a`, `throttle`, `valid`, …)
+//! and one row per settled thrust step. Any other CSV with named columns reads the same way.
+//! Rows whose `valid` column is `false`/`0` (e.g. taken while the bench supply was
+//! current-limiting) are skipped and counted, never fitted.
+//!
+//! Main types: [`Table`] (named numeric columns with the source line of every row),
+//! [`YSource`] (a column, or a product of two such as `voltage_v × current_a`), [`XySeries`].
+//! Every error names the source, the line and the column.
+//!
+//! ```
+//! use import::{Table, YSource};
+//!
+//! let csv = "# rig: sim-paper\nthrust_g,voltage_v,current_a,valid\n10,12.5,0.13,true\n20,12.5,0.26,false\n30,12.5,0.40,true\n";
+//! let table = Table::parse(csv.as_bytes(), "sweep.csv")?;
+//! let xy = table.xy("thrust_g", &YSource::power_default())?;
+//! assert_eq!(xy.x, [10.0, 30.0]);
+//! assert!((xy.y[1] - 5.0).abs() < 1e-12);
+//! assert_eq!(xy.y_name, "power_w = voltage_v × current_a");
+//! assert_eq!(xy.skipped_invalid, 1);
+//! # Ok::<(), import::ImportError>(())
+//! ```
+
+use std::path::Path;
+
+pub mod catalogue;
+
+use sha2::{Digest, Sha256};
+
+/// Why a table could not be read.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ImportError {
+    /// The file could not be read.
+    #[error("{source_name}: {error}")]
+    Io {
+        /// The file.
+        source_name: String,
+        /// The cause.
+        error: std::io::Error,
+    },
+    /// Malformed CSV (unbalanced quotes, a row with another number of fields, bad UTF-8).
+    #[error("{source_name}, line {line}: {message}")]
+    Csv {
+        /// The file.
+        source_name: String,
+        /// 1-based line.
+        line: u64,
+        /// What the CSV reader said.
+        message: String,
+    },
+    /// The file has no header or no data rows.
+    #[error("{source_name}: {message}")]
+    Empty {
+        /// The file.
+        source_name: String,
+        /// What is missing.
+        message: String,
+    },
+    /// A column asked for is not in the header.
+    #[error("{source_name}: no column {column}; the header has: {available}")]
+    MissingColumn {
+        /// The file.
+        source_name: String,
+        /// The column asked for.
+        column: String,
+        /// The columns present, comma-separated.
+        available: String,
+    },
+    /// A cell is not a finite number.
+    #[error("{source_name}, line {line}, column {column:?}: {value:?} is not a finite number")]
+    BadNumber {
+        /// The file.
+        source_name: String,
+        /// 1-based line.
+        line: u64,
+        /// The column.
+        column: String,
+        /// The cell's text.
+        value: String,
+    },
+    /// A cell whose number is out of its allowed range.
+    #[error("{source_name}, line {line}, column {column:?}: {value:?} is not {expected}")]
+    BadValue {
+        /// The file.
+        source_name: String,
+        /// 1-based line.
+        line: u64,
+        /// The column.
+        column: String,
+        /// The cell's text.
+        value: String,
+        /// What was expected.
+        expected: String,
+    },
+    /// A `valid` cell that is neither true nor false.
+    #[error("{source_name}, line {line}: the valid column holds {value:?}; use true/false or 1/0")]
+    BadFlag {
+        /// The file.
+        source_name: String,
+        /// 1-based line.
+        line: u64,
+        /// The cell's text.
+        value: String,
+    },
+}
+
+/// Where the y values come from.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum YSource {
+    /// One column.
+    Column(String),
+    /// The product of two columns (electrical power = voltage × current).
+    Product(String, String),
+    /// The first source present in the table.
+    FirstOf(Vec<YSource>),
+}
+
+impl YSource {
+    /// How the source reads in a message: `"power_w"`, `"voltage_v" × "current_a"`.
+    pub fn describe(&self) -> String {
+        match self {
+            Self::Column(c) => format!("{c:?}"),
+            Self::Product(a, b) => format!("{a:?} × {b:?}"),
+            Self::FirstOf(o) => o
+                .iter()
+                .map(Self::describe)
+                .collect::<Vec<_>>()
+                .join(" or "),
+        }
+    }
+
+    /// `power_w` if the table has it, else `voltage_v × current_a`.
+    pub fn power_default() -> Self {
+        Self::FirstOf(vec![
+            Self::Column("power_w".into()),
+            Self::Product("voltage_v".into(), "current_a".into()),
+        ])
+    }
+}
+
+/// Paired (x, y) values read from a table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct XySeries {
+    /// Abscissa values.
+    pub x: Vec<f64>,
+    /// Ordinate values.
+    pub y: Vec<f64>,
+    /// Name of the x column.
+    pub x_name: String,
+    /// Name of the y column, or `power_w = voltage_v × current_a` when derived.
+    pub y_name: String,
+    /// Source line of each pair.
+    pub lines: Vec<u64>,
+    /// Rows skipped because their `valid` column was false.
+    pub skipped_invalid: usize,
+}
+
+/// A CSV table: its header, its rows as text, the line of each row.
+#[derive(Debug, Clone)]
+pub struct Table {
+    source_name: String,
+    header: Vec<String>,
+    rows: Vec<Vec<String>>,
+    lines: Vec<u64>,
+    /// The `#` comment lines before the header, without the `#`.
+    pub comments: Vec<String>,
+}
+
+/// SHA-256 of some bytes as lowercase hex, for provenance records.
+pub fn sha256_hex(bytes: &[u8]) -> String {
+    Sha256::digest(bytes)
+        .iter()
+        .map(|b| format!("{b:02x}"))
+        .collect()
+}
+
+impl Table {
+    /// Reads and parses a CSV file.
+    pub fn read(path: &Path) -> Result<(Self, Vec<u8>), ImportError> {
+        let name = path.display().to_string();
+        let bytes = std::fs::read(path).map_err(|error| ImportError::Io {
+            source_name: name.clone(),
+            error,
+        })?;
+        let table = Self::parse(&bytes, &name)?;
+        Ok((table, bytes))
+    }
+
+    /// Parses CSV text. `source_name` is used in error messages. A UTF-8 byte-order mark, `#`
+    /// comment lines, blank lines, surrounding spaces and a trailing comma are all accepted.
+    pub fn parse(bytes: &[u8], source_name: &str) -> Result<Self, ImportError> {
+        let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+        let comments = bytes
+            .split(|&b| b == b'\n')
+            .map(|l| String::from_utf8_lossy(l).trim().to_owned())
+            .take_while(|l| l.is_empty() || l.starts_with('#'))
+            .filter_map(|l| l.strip_prefix('#').map(|c| c.trim().to_owned()))
+            .collect();
+        let mut rdr = csv::ReaderBuilder::new()
+            .comment(Some(b'#'))
+            .trim(csv::Trim::All)
+            .flexible(false)
+            .from_reader(bytes);
+        let csv_err = |e: csv::Error| ImportError::Csv {
+            source_name: source_name.to_owned(),
+            line: e.position().map_or(0, csv::Position::line),
+            message: match e.kind() {
+                csv::ErrorKind::UnequalLengths {
+                    expected_len, len, ..
+                } => format!("{len} fields where the header has {expected_len}"),
+                _ => e.to_string(),
+            },
+        };
+        let header: Vec<String> = rdr
+            .headers()
+            .map_err(csv_err)?
+            .iter()
+            .map(str::to_owned)
+            .collect();
+        if header.iter().all(String::is_empty) {
+            return Err(ImportError::Empty {
+                source_name: source_name.to_owned(),
+                message: "no header row".into(),
+            });
+        }
+        let mut rows = Vec::new();
+        let mut lines = Vec::new();
+        for rec in rdr.records() {
+            let rec = rec.map_err(csv_err)?;
+            if rec.iter().all(str::is_empty) {
+                continue;
+            }
+            lines.push(rec.position().map_or(0, csv::Position::line));
+            rows.push(rec.iter().map(str::to_owned).collect());
+        }
+        if rows.is_empty() {
+            return Err(ImportError::Empty {
+                source_name: source_name.to_owned(),
+                message: "the header is followed by no data rows".into(),
+            });
+        }
+        Ok(Self {
+            source_name: source_name.to_owned(),
+            header,
+            rows,
+            lines,
+            comments,
+        })
+    }
+
+    /// Column names, in file order.
+    pub fn header(&self) -> &[String] {
+        &self.header
+    }
+
+    /// Number of data rows.
+    pub fn len(&self) -> usize {
+        self.rows.len()
+    }
+
+    /// True when the table has no data rows (never, for a parsed table).
+    pub fn is_empty(&self) -> bool {
+        self.rows.is_empty()
+    }
+
+    /// Whether a column exists.
+    pub fn has(&self, column: &str) -> bool {
+        self.header.iter().any(|h| h == column)
+    }
+
+    fn available(&self) -> String {
+        self.header
+            .iter()
+            .filter(|h| !h.is_empty())
+            .cloned()
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    fn index(&self, column: &str) -> Result<usize, ImportError> {
+        self.header
+            .iter()
+            .position(|h| h == column)
+            .ok_or_else(|| ImportError::MissingColumn {
+                source_name: self.source_name.clone(),
+                column: format!("{column:?}"),
+                available: self.available(),
+            })
+    }
+
+    fn number(&self, row: usize, col: usize) -> Result<f64, ImportError> {
+        let text = &self.rows[row][col];
+        match text.parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(v),
+            _ => Err(ImportError::BadNumber {
+                source_name: self.source_name.clone(),
+                line: self.lines[row],
+                column: self.header[col].clone(),
+                value: text.clone(),
+            }),
+        }
+    }
+
+    /// Source line of row `r`.
+    pub fn line(&self, r: usize) -> u64 {
+        self.lines[r]
+    }
+
+    /// The text of one cell (empty when the column is missing).
+    pub fn cell_text(&self, r: usize, column: &str) -> &str {
+        self.header
+            .iter()
+            .position(|h| h == column)
+            .map_or("", |c| self.rows[r][c].as_str())
+    }
+
+    /// One cell as a finite number.
+    pub fn cell_number(&self, r: usize, column: &str) -> Result<f64, ImportError> {
+        let c = self.index(column)?;
+        self.number(r, c)
+    }
+
+    /// An error for a cell whose value is out of range.
+    pub fn bad_value(&self, r: usize, column: &str, expected: &str) -> ImportError {
+        ImportError::BadValue {
+            source_name: self.source_name.clone(),
+            line: self.lines[r],
+            column: column.to_owned(),
+            value: self.cell_text(r, column).to_owned(),
+            expected: expected.to_owned(),
+        }
+    }
+
+    /// Which rows count: all, or those whose `valid` column is true.
+    fn valid_rows(&self) -> Result<Vec<bool>, ImportError> {
+        let Ok(col) = self.index("valid") else {
+            return Ok(vec![true; self.rows.len()]);
+        };
+        (0..self.rows.len())
+            .map(|r| match self.rows[r][col].to_ascii_lowercase().as_str() {
+                "true" | "1" | "yes" => Ok(true),
+                "false" | "0" | "no" => Ok(false),
+                other => Err(ImportError::BadFlag {
+                    source_name: self.source_name.clone(),
+                    line: self.lines[r],
+                    value: other.to_owned(),
+                }),
+            })
+            .collect()
+    }
+
+    /// A numeric column over the valid rows.
+    pub fn column(&self, name: &str) -> Result<Vec<f64>, ImportError> {
+        let col = self.index(name)?;
+        let valid = self.valid_rows()?;
+        (0..self.rows.len())
+            .filter(|&r| valid[r])
+            .map(|r| self.number(r, col))
+            .collect()
+    }
+
+    /// The text of a column over all rows (for flags and labels).
+    pub fn text_column(&self, name: &str) -> Result<Vec<&str>, ImportError> {
+        let col = self.index(name)?;
+        Ok(self.rows.iter().map(|r| r[col].as_str()).collect())
+    }
+
+    fn resolve(&self, y: &YSource) -> Result<(Vec<usize>, String), ImportError> {
+        match y {
+            YSource::Column(c) => Ok((vec![self.index(c)?], c.clone())),
+            YSource::Product(a, b) => {
+                Ok((vec![self.index(a)?, self.index(b)?], format!("{a} × {b}")))
+            }
+            YSource::FirstOf(options) => {
+                for o in options {
+                    if let Ok(r) = self.resolve(o) {
+                        return Ok(r);
+                    }
+                }
+                Err(ImportError::MissingColumn {
+                    source_name: self.source_name.clone(),
+                    column: options
+                        .iter()
+                        .map(YSource::describe)
+                        .collect::<Vec<_>>()
+                        .join(" or "),
+                    available: self.available(),
+                })
+            }
+        }
+    }
+
+    /// Pairs an x column with a y source over the valid rows.
+    pub fn xy(&self, x: &str, y: &YSource) -> Result<XySeries, ImportError> {
+        let xi = self.index(x)?;
+        let (yi, y_label) = self.resolve(y)?;
+        let y_name = if yi.len() == 2 {
+            format!("power_w = {y_label}")
+        } else {
+            y_label
+        };
+        let valid = self.valid_rows()?;
+        let mut out = XySeries {
+            x: Vec::with_capacity(self.rows.len()),
+            y: Vec::with_capacity(self.rows.len()),
+            x_name: x.to_owned(),
+            y_name,
+            lines: Vec::with_capacity(self.rows.len()),
+            skipped_invalid: 0,
+        };
+        for (r, &is_valid) in valid.iter().enumerate() {
+            if !is_valid {
+                out.skipped_invalid += 1;
+                continue;
+            }
+            out.x.push(self.number(r, xi)?);
+            let mut y = 1.0;
+            for &c in &yi {
+                y *= self.number(r, c)?;
+            }
+            out.y.push(y);
+            out.lines.push(self.lines[r]);
+        }
+        if out.x.is_empty() {
+            return Err(ImportError::Empty {
+                source_name: self.source_name.clone(),
+                message: format!(
+                    "all {} rows are marked invalid: nothing to fit",
+                    out.skipped_invalid
+                ),
+            });
+        }
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[test]
+    fn errors_name_line_and_column() {
+        let t = Table::parse(b"thrust_g,power_w\n10,1.5\n20,NaN\n", "s.csv").unwrap();
+        let e = t.xy("thrust_g", &YSource::power_default()).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "s.csv, line 3, column \"power_w\": \"NaN\" is not a finite number"
+        );
+        let e = t.xy("thrust", &YSource::power_default()).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("no column \"thrust\"; the header has: thrust_g, power_w")
+        );
+        let e = Table::parse(b"a,b\n1,2\n3\n", "r.csv").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "r.csv, line 3: 1 fields where the header has 2"
+        );
+        assert!(Table::parse(b"a,b\n", "e.csv").is_err());
+        assert!(Table::parse(b"", "e.csv").is_err());
+    }
+
+    #[test]
+    fn bom_comments_and_trailing_comma() {
+        let t = Table::parse(
+            "\u{feff}# rig: x\n# supply: 12.5 V\nTime (s),Thrust (gf),\n0.5, 12 ,\n1.0,13,\n"
+                .as_bytes(),
+            "tyto.csv",
+        )
+        .unwrap();
+        assert_eq!(t.comments, ["rig: x", "supply: 12.5 V"]);
+        assert_eq!(t.column("Thrust (gf)").unwrap(), [12.0, 13.0]);
+    }
+
+    #[test]
+    fn power_column_wins_over_product() {
+        let t = Table::parse(b"thrust_g,voltage_v,current_a,power_w\n1,2,3,7\n", "p").unwrap();
+        let xy = t.xy("thrust_g", &YSource::power_default()).unwrap();
+        assert_eq!(xy.y, [7.0]);
+        assert_eq!(xy.y_name, "power_w");
+    }
+
+    #[test]
+    fn sha256_of_known_text() {
+        assert_eq!(
+            sha256_hex(b"abc"),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad"
+        );
+    }
+
+    proptest! {
+        #[test]
+        fn parse_never_panics(bytes in proptest::collection::vec(any::<u8>(), 0..200)) {
+            if let Ok(t) = Table::parse(&bytes, "fuzz") {
+                let first = t.header()[0].clone();
+                let _ = t.xy(&first, &YSource::power_default());
+            }
+        }
+
+        #[test]
+        fn numbers_round_trip(v in proptest::collection::vec(-1e6f64..1e6, 1..20)) {
+            let mut s = String::from("x,y\n");
+            for (i, x) in v.iter().enumerate() {
+                s.push_str(&format!("{i},{x}\n"));
+            }
+            let t = Table::parse(s.as_bytes(), "p").unwrap();
+            prop_assert_eq!(t.column("y").unwrap(), v);
+        }
+    }
+}

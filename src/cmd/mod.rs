@@ -1,0 +1,36 @@
+//! One module per subcommand.
+
+use clap::Subcommand;
+
+pub mod estimate;
+pub mod fit;
+pub mod mission;
+pub mod optimise;
+pub mod paper;
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Fit a polynomial to a rig sweep (or any CSV) and write params.toml.
+    Fit(fit::Args),
+    /// Estimate hover endurance for one battery and payload (eqs. 1-6).
+    Estimate(estimate::Args),
+    /// Find the battery mass that maximises endurance, or rank a battery catalogue (Fig. 4-5).
+    #[command(alias = "optimize")]
+    Optimise(optimise::Args),
+    /// Evaluate a mission of hover and ceiling-attached segments (eqs. 7-9, Table I).
+    Mission(mission::Args),
+    /// Reproduce the paper end to end from its reconstructed Fig. 3 curve.
+    Paper(paper::Args),
+}
+
+/// Runs a subcommand.
+pub fn run(command: Command) -> anyhow::Result<()> {
+    match command {
+        Command::Fit(a) => fit::run(a),
+        Command::Estimate(a) => estimate::run(a),
+        Command::Optimise(a) => optimise::run(a),
+        Command::Mission(a) => mission::run(a),
+        Command::Paper(a) => paper::run(a),
+    }
+}

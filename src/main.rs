@@ -1,0 +1,35 @@
+//! `hoverbench`: from the thrust bench to a trustworthy endurance figure.
+//!
+//! A thin front end: each subcommand lives in `src/cmd/<name>.rs` with a clap `Args` struct and a
+//! `run()`; the domain logic is in the library crates. Errors print as a chain and exit with
+//! code 2 (bad input or a failed session); clap's usage errors exit with 2 too.
+
+use std::process::ExitCode;
+
+use clap::Parser;
+
+mod cmd;
+mod output;
+
+/// Thrust-bench characterisation, endurance estimation and sim-to-real diagnosis for hovering
+/// robots.
+#[derive(Debug, Parser)]
+#[command(name = "hoverbench", version, about, long_about = None, max_term_width = 100)]
+struct Cli {
+    #[command(subcommand)]
+    command: cmd::Command,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match cmd::run(cli.command) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            for cause in e.chain().skip(1) {
+                eprintln!("  caused by: {cause}");
+            }
+            ExitCode::from(2)
+        }
+    }
+}
