@@ -192,6 +192,52 @@ impl ModelArgs {
     }
 }
 
+/// How to read a thrust-stand log: column mapping, names for headerless files, row filters.
+#[derive(Debug, Clone, Default, clap::Args)]
+pub struct StandArgs {
+    /// Thrust column [default: detected: thrust_g, "Thrust (gf)", thrust_n, …]. Units come
+    /// from the name: g, gf, kg, kgf, N, lbf, ozf.
+    #[arg(long, value_name = "COL")]
+    pub thrust: Option<String>,
+    /// Voltage column [default: detected].
+    #[arg(long, value_name = "COL")]
+    pub voltage: Option<String>,
+    /// Current column [default: detected].
+    #[arg(long, value_name = "COL")]
+    pub current: Option<String>,
+    /// Electrical power column [default: detected, else voltage × current].
+    #[arg(long, value_name = "COL")]
+    pub power: Option<String>,
+    /// Throttle / ESC command column [default: detected].
+    #[arg(long, value_name = "COL")]
+    pub throttle: Option<String>,
+    /// Names for the columns of a file without a header row, comma-separated (units in the
+    /// names: esc_us,torque_nm,thrust_n,rpm,current_a).
+    #[arg(long, value_name = "NAMES", value_delimiter = ',')]
+    pub columns: Option<Vec<String>>,
+    /// Keep only rows where COLUMN equals VALUE (repeatable), e.g. --where "propeller=DJI plastic 9450".
+    #[arg(long = "where", value_name = "COLUMN=VALUE")]
+    pub filters: Vec<import::stand::RowFilter>,
+}
+
+impl StandArgs {
+    /// The importer's options.
+    pub fn options(&self) -> import::stand::StandOptions {
+        import::stand::StandOptions {
+            columns: import::stand::ColumnMap {
+                thrust: self.thrust.clone(),
+                voltage: self.voltage.clone(),
+                current: self.current.clone(),
+                power: self.power.clone(),
+                throttle: self.throttle.clone(),
+                ..Default::default()
+            },
+            names: self.columns.clone(),
+            filters: self.filters.clone(),
+        }
+    }
+}
+
 /// Prints a value as pretty JSON on stdout.
 pub fn print_json(value: &impl serde::Serialize) -> Result<()> {
     println!("{}", serde_json::to_string_pretty(value)?);

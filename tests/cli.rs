@@ -361,7 +361,7 @@ fn bad_input_gives_one_clear_message_and_writes_nothing() {
     let missing = w("missing.csv", "thrust_g,current_a\n10,1\n20,2\n");
     fails_with(
         &["fit", &missing, "-o", o],
-        "no column \"power_w\" or \"voltage_v\" × \"current_a\"",
+        "no voltage column, so electrical power cannot be computed",
     );
     let nan = w("nan.csv", "thrust_g,power_w\n10,1\n20,NaN\n30,3\n");
     fails_with(

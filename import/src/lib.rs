@@ -26,6 +26,8 @@
 use std::path::Path;
 
 pub mod catalogue;
+pub mod stand;
+pub mod units;
 
 use sha2::{Digest, Sha256};
 
@@ -94,6 +96,26 @@ pub enum ImportError {
         value: String,
         /// What was expected.
         expected: String,
+    },
+    /// A column's unit cannot hold the quantity mapped to it.
+    #[error("{source_name}: column {column:?} is in {unit:?}, which is not a unit of {quantity}")]
+    BadUnit {
+        /// The file.
+        source_name: String,
+        /// The column.
+        column: String,
+        /// Its unit.
+        unit: String,
+        /// The quantity it was mapped to.
+        quantity: String,
+    },
+    /// A file without a header row, and no column names given.
+    #[error(
+        "{source_name}: the first row holds numbers, not column names; name the columns (e.g. --columns esc_us,torque_nm,thrust_n,rpm,current_a)"
+    )]
+    NoHeader {
+        /// The file.
+        source_name: String,
     },
     /// A `valid` cell that is neither true nor false.
     #[error("{source_name}, line {line}: the valid column holds {value:?}; use true/false or 1/0")]
@@ -192,7 +214,54 @@ impl Table {
     /// Parses CSV text. `source_name` is used in error messages. A UTF-8 byte-order mark, `#`
     /// comment lines, blank lines, surrounding spaces and a trailing comma are all accepted.
     pub fn parse(bytes: &[u8], source_name: &str) -> Result<Self, ImportError> {
+        Self::parse_with(bytes, source_name, None)
+    }
+
+    /// Like [`Table::parse`], and also reads whitespace-separated files and, given `columns`,
+    /// files without a header row. A file whose first row is all numbers needs `columns`.
+    pub fn parse_with(
+        bytes: &[u8],
+        source_name: &str,
+        columns: Option<&[String]>,
+    ) -> Result<Self, ImportError> {
         let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+        let lossy = String::from_utf8_lossy(bytes);
+        let first = lossy
+            .lines()
+            .map(str::trim)
+            .find(|l| !l.is_empty() && !l.starts_with('#'))
+            .unwrap_or_default();
+        let whitespace = !first.contains(',') && first.split_whitespace().count() > 1;
+        let numeric_first = !first.is_empty()
+            && first
+                .split(|c: char| c == ',' || c.is_whitespace())
+                .filter(|f| !f.is_empty())
+                .all(|f| f.parse::<f64>().is_ok());
+        if numeric_first && columns.is_none() {
+            return Err(ImportError::NoHeader {
+                source_name: source_name.to_owned(),
+            });
+        }
+        // Whitespace-separated files become comma-separated, line for line, so that line
+        // numbers in errors still point into the original file.
+        let normalised;
+        let bytes = if whitespace {
+            normalised = lossy
+                .split('\n')
+                .map(|l| {
+                    let t = l.trim();
+                    if t.starts_with('#') {
+                        t.to_owned()
+                    } else {
+                        t.split_whitespace().collect::<Vec<_>>().join(",")
+                    }
+                })
+                .collect::<Vec<_>>()
+                .join("\n");
+            normalised.as_bytes()
+        } else {
+            bytes
+        };
         let comments = bytes
             .split(|&b| b == b'\n')
             .map(|l| String::from_utf8_lossy(l).trim().to_owned())
@@ -203,6 +272,7 @@ impl Table {
             .comment(Some(b'#'))
             .trim(csv::Trim::All)
             .flexible(false)
+            .has_headers(!numeric_first)
             .from_reader(bytes);
         let csv_err = |e: csv::Error| ImportError::Csv {
             source_name: source_name.to_owned(),
@@ -214,12 +284,18 @@ impl Table {
                 _ => e.to_string(),
             },
         };
-        let header: Vec<String> = rdr
-            .headers()
-            .map_err(csv_err)?
-            .iter()
-            .map(str::to_owned)
-            .collect();
+        let mut header: Vec<String> = if numeric_first {
+            Vec::new()
+        } else {
+            rdr.headers()
+                .map_err(csv_err)?
+                .iter()
+                .map(str::to_owned)
+                .collect()
+        };
+        if let Some(cols) = columns {
+            header = cols.iter().map(|c| c.trim().to_owned()).collect();
+        }
         if header.iter().all(String::is_empty) {
             return Err(ImportError::Empty {
                 source_name: source_name.to_owned(),
@@ -233,7 +309,15 @@ impl Table {
             if rec.iter().all(str::is_empty) {
                 continue;
             }
-            lines.push(rec.position().map_or(0, csv::Position::line));
+            let line = rec.position().map_or(0, csv::Position::line);
+            if rec.len() != header.len() {
+                return Err(ImportError::Csv {
+                    source_name: source_name.to_owned(),
+                    line,
+                    message: format!("{} fields where the header has {}", rec.len(), header.len()),
+                });
+            }
+            lines.push(line);
             rows.push(rec.iter().map(str::to_owned).collect());
         }
         if rows.is_empty() {
@@ -271,7 +355,7 @@ impl Table {
         self.header.iter().any(|h| h == column)
     }
 
-    fn available(&self) -> String {
+    pub(crate) fn available(&self) -> String {
         self.header
             .iter()
             .filter(|h| !h.is_empty())
@@ -280,7 +364,7 @@ impl Table {
             .join(", ")
     }
 
-    fn index(&self, column: &str) -> Result<usize, ImportError> {
+    pub(crate) fn index(&self, column: &str) -> Result<usize, ImportError> {
         self.header
             .iter()
             .position(|h| h == column)
@@ -335,7 +419,7 @@ impl Table {
     }
 
     /// Which rows count: all, or those whose `valid` column is true.
-    fn valid_rows(&self) -> Result<Vec<bool>, ImportError> {
+    pub(crate) fn valid_rows(&self) -> Result<Vec<bool>, ImportError> {
         let Ok(col) = self.index("valid") else {
             return Ok(vec![true; self.rows.len()]);
         };

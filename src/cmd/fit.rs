@@ -6,21 +6,25 @@ use std::path::PathBuf;
 use anyhow::{Context, Result, bail};
 use estimator::file::Provenance;
 use fit::export::{CurveLabels, LimitRecord};
+use import::stand::{StandLog, StandOptions};
 use import::{Table, YSource};
 
-use crate::output::{self, Table as TextTable};
+use crate::output::{self, StandArgs, Table as TextTable};
 
-/// Fit a polynomial to a rig sweep (thrust_g vs power_w, or voltage_v × current_a) or to any
-/// two named columns of a CSV, and write params.toml.
+/// Fit electrical power against thrust from a rig sweep — hoverbench's own, a Tyto
+/// RCbenchmark / Flight Stand export, or any table of thrust, voltage, current (or power) — or
+/// fit any two named columns of a CSV (--x/--y), and write params.toml.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The sweep CSV (hoverbench's own, or any CSV with a header of column names).
+    /// The sweep (CSV or whitespace-separated; step tests are reduced to settled steps).
     file: PathBuf,
-    /// Abscissa column.
-    #[arg(long, value_name = "COL", default_value = "thrust_g")]
-    x: String,
-    /// Ordinate column [default: power_w, else voltage_v × current_a].
-    #[arg(long, value_name = "COL")]
+    #[command(flatten)]
+    stand: StandArgs,
+    /// Generic fit: abscissa column, taken as it is (no unit conversion, no step reduction).
+    #[arg(long, value_name = "COL", requires = "y")]
+    x: Option<String>,
+    /// Generic fit: ordinate column.
+    #[arg(long, value_name = "COL", requires = "x")]
     y: Option<String>,
     /// Polynomial degree.
     #[arg(long, value_name = "N", default_value_t = fit::DEFAULT_DEGREE)]
@@ -32,10 +36,11 @@ pub struct Args {
     /// Rotors sharing the take-off mass.
     #[arg(long, value_name = "N", default_value_t = 4, value_parser = clap::value_parser!(u8).range(1..))]
     rotors: u8,
-    /// Supply voltage of the sweep [default: mean of its voltage_v column].
+    /// Supply voltage of the sweep [default: mean of its voltage column]; with a log that has
+    /// current but no voltage, power is taken as this voltage × current.
     #[arg(long, value_name = "V")]
     volts: Option<f64>,
-    /// Supply voltage of the limit sweep [default: mean of its voltage_v column].
+    /// Supply voltage of the limit sweep [default: mean of its voltage column].
     #[arg(long, value_name = "V")]
     limit_volts: Option<f64>,
     /// Write the parameter file here.
@@ -61,6 +66,8 @@ struct LimitJson {
 #[derive(serde::Serialize)]
 struct Report<'a> {
     input: String,
+    log_kind: &'static str,
+    notes: Vec<String>,
     x: &'a str,
     y: &'a str,
     degree: usize,
@@ -83,21 +90,107 @@ struct Report<'a> {
     written: Vec<String>,
 }
 
-fn mean(v: &[f64]) -> f64 {
-    v.iter().sum::<f64>() / v.len() as f64
+/// The data to fit: x, y, their names, and what the reader did.
+struct Data {
+    x: Vec<f64>,
+    y: Vec<f64>,
+    x_name: String,
+    y_name: String,
+    y_label: String,
+    kind: &'static str,
+    notes: Vec<String>,
+    skipped_invalid: usize,
+    supply_voltage_v: Option<f64>,
+    bytes: Vec<u8>,
 }
 
-fn voltage(table: &Table, given: Option<f64>) -> Result<Option<f64>> {
-    if let Some(v) = given {
-        if !(v.is_finite() && v > 0.0) {
-            bail!("supply voltage must be a positive number of volts, got {v}");
+fn positive_volts(v: Option<f64>) -> Result<Option<f64>> {
+    match v {
+        Some(v) if !(v.is_finite() && v > 0.0) => {
+            bail!("supply voltage must be a positive number of volts, got {v}")
         }
-        return Ok(Some(v));
+        v => Ok(v),
     }
-    if table.has("voltage_v") {
-        return Ok(Some(mean(&table.column("voltage_v")?)));
-    }
-    Ok(None)
+}
+
+fn generic_data(args: &Args, x: &str, y: &str) -> Result<Data> {
+    let (table, bytes) = Table::read(&args.file)?;
+    let xy = table.xy(x, &YSource::Column(y.to_owned()))?;
+    let volts = match positive_volts(args.volts)? {
+        Some(v) => Some(v),
+        None if table.has("voltage_v") => {
+            let v = table.column("voltage_v")?;
+            Some(v.iter().sum::<f64>() / v.len() as f64)
+        }
+        None => None,
+    };
+    Ok(Data {
+        x: xy.x,
+        y: xy.y,
+        x_name: x.to_owned(),
+        y_name: y.to_owned(),
+        y_label: y.to_owned(),
+        kind: "generic table",
+        notes: Vec::new(),
+        skipped_invalid: xy.skipped_invalid,
+        supply_voltage_v: volts,
+        bytes,
+    })
+}
+
+fn stand_data(args: &Args) -> Result<Data> {
+    let log = StandLog::read(&args.file, &args.stand.options())?;
+    let volts = positive_volts(args.volts)?;
+    let mut notes = log.notes.clone();
+    let (power, y_label) = match (
+        log.column(|s| s.power_w),
+        volts,
+        log.column(|s| s.current_a),
+    ) {
+        (Some(p), _, _) => (
+            p,
+            if log.power_logged {
+                "power_w"
+            } else {
+                "power_w = voltage × current"
+            },
+        ),
+        (None, Some(v), Some(i)) => {
+            notes.push(format!(
+                "no voltage logged: power taken as {v} V (--volts) × current"
+            ));
+            (
+                i.iter().map(|i| i * v).collect(),
+                "power_w = --volts × current",
+            )
+        }
+        (None, _, Some(_)) => bail!(
+            "{}: no voltage column, so electrical power cannot be computed. Give --volts V to \
+             assume a constant supply voltage, or fit another pair of columns with --x/--y",
+            args.file.display()
+        ),
+        (None, _, None) => bail!(
+            "{}: neither power nor voltage and current are logged: electrical power cannot be \
+             computed; name the columns with --power or --voltage/--current",
+            args.file.display()
+        ),
+    };
+    Ok(Data {
+        x: log.thrust_g(),
+        y: power,
+        x_name: "thrust_g".into(),
+        y_name: "power_w".into(),
+        y_label: y_label.into(),
+        kind: match log.kind {
+            import::stand::LogKind::Hoverbench => "hoverbench sweep",
+            import::stand::LogKind::Tyto => "Tyto RCbenchmark / Flight Stand export",
+            import::stand::LogKind::Generic => "generic stand log",
+        },
+        notes,
+        skipped_invalid: log.skipped_invalid,
+        supply_voltage_v: volts.or_else(|| log.mean_voltage_v()),
+        bytes: log.bytes,
+    })
 }
 
 /// Runs the subcommand.
@@ -105,69 +198,62 @@ pub fn run(args: Args) -> Result<()> {
     if args.output.is_none() && args.blob.is_some() {
         bail!("--blob needs -o params.toml too: the blob is written beside the canonical file");
     }
-    let (table, bytes) = Table::read(&args.file)?;
-    let y_source = args
-        .y
-        .clone()
-        .map_or_else(YSource::power_default, YSource::Column);
-    let xy = table.xy(&args.x, &y_source)?;
-    let y_name = if xy.y_name.starts_with("power_w") {
-        "power_w"
-    } else {
-        xy.y_name.as_str()
+    let data = match (&args.x, &args.y) {
+        (Some(x), Some(y)) => generic_data(&args, x, y)?,
+        _ => stand_data(&args)?,
     };
-    let fitted = fit::fit_polynomial(&xy.x, &xy.y, args.degree).with_context(|| {
+    let fitted = fit::fit_polynomial(&data.x, &data.y, args.degree).with_context(|| {
         format!(
             "fitting {} against {} in {}",
-            y_name,
-            args.x,
+            data.y_name,
+            data.x_name,
             args.file.display()
         )
     })?;
-    let supply_voltage_v = voltage(&table, args.volts)?;
+    let supply_voltage_v = data.supply_voltage_v;
 
     let limit = match &args.limit {
         None => None,
         Some(path) => {
-            let (lt, lbytes) = Table::read(path)?;
-            let throttle = lt.column("throttle")?;
-            let thrust = lt.column("thrust_g")?;
-            let std = if lt.has("thrust_std_g") {
-                Some(lt.column("thrust_std_g")?)
-            } else {
-                None
-            };
+            let log = StandLog::read(path, &StandOptions::default())?;
+            let throttle = log.column(|s| s.throttle).with_context(|| {
+                format!("{}: a limit sweep needs a throttle column", path.display())
+            })?;
+            let thrust = log.thrust_g();
+            let std = log.column(|s| s.thrust_std_g);
             let opts = fit::ThrustLimitOptions {
                 thrust_std_g: std.as_deref(),
                 ..Default::default()
             };
             let l = fit::thrust_limit(&throttle, &thrust, &opts)
                 .with_context(|| format!("extracting the thrust limit from {}", path.display()))?;
-            let v = voltage(&lt, args.limit_volts)?.with_context(|| {
-                format!(
-                    "{} has no voltage_v column: give --limit-volts",
-                    path.display()
-                )
-            })?;
+            let v = positive_volts(args.limit_volts)?
+                .or_else(|| log.mean_voltage_v())
+                .with_context(|| {
+                    format!(
+                        "{} has no voltage column: give --limit-volts",
+                        path.display()
+                    )
+                })?;
             Some((
                 LimitRecord {
                     limit: l,
                     supply_voltage_v: v,
                 },
                 path,
-                lbytes,
+                log.bytes,
             ))
         }
     };
 
     let labels = CurveLabels {
-        x: &args.x,
-        y: y_name,
+        x: &data.x_name,
+        y: &data.y_name,
         supply_voltage_v,
     };
     let provenance = Provenance {
         input_file: args.file.display().to_string(),
-        input_sha256: import::sha256_hex(&bytes),
+        input_sha256: import::sha256_hex(&data.bytes),
         limit_input_file: limit.as_ref().map(|(_, p, _)| p.display().to_string()),
         limit_input_sha256: limit.as_ref().map(|(_, _, b)| import::sha256_hex(b)),
         created: jiff::Timestamp::now().to_string(),
@@ -206,8 +292,10 @@ pub fn run(args: Args) -> Result<()> {
     let stats = fitted.stats();
     let rep = Report {
         input: args.file.display().to_string(),
-        x: &args.x,
-        y: &xy.y_name,
+        log_kind: data.kind,
+        notes: data.notes.clone(),
+        x: &data.x_name,
+        y: &data.y_label,
         degree: fitted.degree(),
         coefficients: fitted.monomial_coefficients(),
         coefficients_scaled: fitted.coeffs_scaled(),
@@ -215,7 +303,7 @@ pub fn run(args: Args) -> Result<()> {
         scale: fitted.scale(),
         valid_range: fitted.domain(),
         n_points: stats.n_points,
-        skipped_invalid_rows: xy.skipped_invalid,
+        skipped_invalid_rows: data.skipped_invalid,
         rmse: stats.rmse,
         r_squared: stats.r_squared,
         max_abs_residual: stats.max_residual.map(|m| m.abs_value),
@@ -240,9 +328,12 @@ pub fn run(args: Args) -> Result<()> {
 }
 
 fn print_human(rep: &Report<'_>) {
+    println!("{} ({})", rep.input, rep.log_kind);
+    for n in &rep.notes {
+        println!("note: {n}");
+    }
     println!(
-        "{}: {} = p({}), degree {}, {} points{}",
-        rep.input,
+        "{} = p({}), degree {}, {} points{}",
         rep.y,
         rep.x,
         rep.degree,

@@ -4,6 +4,7 @@ use clap::Subcommand;
 
 pub mod estimate;
 pub mod fit;
+pub mod import;
 pub mod mission;
 pub mod optimise;
 pub mod paper;
@@ -13,6 +14,8 @@ pub mod paper;
 pub enum Command {
     /// Fit a polynomial to a rig sweep (or any CSV) and write params.toml.
     Fit(fit::Args),
+    /// Convert another thrust stand's log into a hoverbench sweep (one row per settled step).
+    Import(import::Args),
     /// Estimate hover endurance for one battery and payload (eqs. 1-6).
     Estimate(estimate::Args),
     /// Find the battery mass that maximises endurance, or rank a battery catalogue (Fig. 4-5).
@@ -28,6 +31,7 @@ pub enum Command {
 pub fn run(command: Command) -> anyhow::Result<()> {
     match command {
         Command::Fit(a) => fit::run(a),
+        Command::Import(a) => import::run(a),
         Command::Estimate(a) => estimate::run(a),
         Command::Optimise(a) => optimise::run(a),
         Command::Mission(a) => mission::run(a),

@@ -1,0 +1,639 @@
+//! Thrust-stand logs of any origin → settled steps in canonical units.
+//!
+//! A [`ColumnMap`] says which column holds thrust, voltage, current, power, throttle, speed,
+//! torque and time; [`ColumnMap::detect`] knows hoverbench's own sweeps, Tyto Robotics'
+//! RCbenchmark / Flight Stand exports (`Thrust (gf)`, `ESC signal (µs)`, …) and unit-suffixed
+//! names (`thrust_n`, `Current [mA]`). Units follow the column names (gf, kgf, N, lbf, mA, …) and
+//! are converted to g, V, A, W, N·m, s, rpm.
+//!
+//! [`Measurements::reduce_steps`] turns a step test into one row per settled step: samples are
+//! grouped by their throttle command, and each group's leading transient (samples far from the
+//! group's settled tail, judged against the tail's own noise) is dropped before averaging — no
+//! fixed settle time is assumed. Logs that already hold one row per step, and ramps whose command
+//! changes every sample, pass through one row each.
+
+use crate::units::{Quantity, factor, split_unit};
+use crate::{ImportError, Table};
+
+/// Which column holds which quantity (column names as in the header).
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct ColumnMap {
+    /// Thrust (required).
+    pub thrust: Option<String>,
+    /// Supply voltage.
+    pub voltage: Option<String>,
+    /// Current.
+    pub current: Option<String>,
+    /// Electrical power.
+    pub power: Option<String>,
+    /// Throttle command (ESC µs, %, or fraction).
+    pub throttle: Option<String>,
+    /// Rotor speed.
+    pub speed: Option<String>,
+    /// Torque.
+    pub torque: Option<String>,
+    /// Time.
+    pub time: Option<String>,
+}
+
+/// Which kind of log the columns were recognised as.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LogKind {
+    /// hoverbench's own sweep (`thrust_g`, `power_w`, …).
+    Hoverbench,
+    /// Tyto Robotics RCbenchmark / Flight Stand export.
+    Tyto,
+    /// Anything else, mapped by name patterns or by the user.
+    Generic,
+}
+
+fn find(table: &Table, names: &[&str]) -> Option<String> {
+    // Exact names first, then "base name (unit)" / "base_unit" patterns, case-insensitively.
+    for n in names {
+        if let Some(h) = table.header().iter().find(|h| h.as_str() == *n) {
+            return Some(h.clone());
+        }
+    }
+    for n in names {
+        if let Some(h) = table
+            .header()
+            .iter()
+            .find(|h| split_unit(h).0.eq_ignore_ascii_case(n))
+        {
+            return Some(h.clone());
+        }
+    }
+    None
+}
+
+impl ColumnMap {
+    /// Recognises the columns of a table.
+    pub fn detect(table: &Table) -> (Self, LogKind) {
+        let has = |c: &str| table.has(c);
+        let kind = if has("thrust_g") {
+            LogKind::Hoverbench
+        } else if has("ESC signal (µs)") || (has("Time (s)") && find(table, &["Thrust"]).is_some())
+        {
+            LogKind::Tyto
+        } else {
+            LogKind::Generic
+        };
+        let map = Self {
+            thrust: find(table, &["thrust_g", "thrust", "force"]),
+            voltage: find(table, &["voltage_v", "voltage", "volts"]),
+            current: find(table, &["current_a", "current", "amps"]),
+            power: find(
+                table,
+                &["power_w", "Electrical Power", "electrical_power", "power"],
+            ),
+            throttle: find(
+                table,
+                &["throttle", "ESC signal", "esc", "esc_signal", "pwm"],
+            ),
+            speed: find(
+                table,
+                &[
+                    "rpm",
+                    "Motor Electrical Speed",
+                    "Motor Optical Speed",
+                    "speed",
+                    "motor_speed",
+                ],
+            ),
+            torque: find(table, &["torque_nm", "Torque", "torque"]),
+            time: find(table, &["time_s", "Time", "time"]),
+        };
+        (map, kind)
+    }
+
+    /// Overrides the detected columns with the ones given (`None` leaves a column as detected).
+    pub fn overridden_by(mut self, other: &Self) -> Self {
+        macro_rules! take {
+            ($($f:ident),*) => {$(if other.$f.is_some() { self.$f = other.$f.clone(); })*};
+        }
+        take!(
+            thrust, voltage, current, power, throttle, speed, torque, time
+        );
+        self
+    }
+}
+
+/// Samples in canonical units, one entry per kept row.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Measurements {
+    /// Thrust, g.
+    pub thrust_g: Vec<f64>,
+    /// Voltage, V.
+    pub voltage_v: Option<Vec<f64>>,
+    /// Current, A.
+    pub current_a: Option<Vec<f64>>,
+    /// Electrical power, W (logged, or voltage × current).
+    pub power_w: Option<Vec<f64>>,
+    /// Whether `power_w` was logged (true) or computed as voltage × current (false).
+    pub power_logged: bool,
+    /// Throttle command, in its own unit.
+    pub throttle: Option<Vec<f64>>,
+    /// Speed, rpm.
+    pub speed_rpm: Option<Vec<f64>>,
+    /// Torque, N·m.
+    pub torque_nm: Option<Vec<f64>>,
+    /// Source line of each sample.
+    pub lines: Vec<u64>,
+    /// Table row of each sample.
+    pub rows: Vec<usize>,
+    /// What the reader did that a user should know (negated thrust, …).
+    pub notes: Vec<String>,
+    /// Rows skipped because their `valid` column was false.
+    pub skipped_invalid: usize,
+}
+
+/// One settled step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Step {
+    /// Throttle command of the step, when logged.
+    pub throttle: Option<f64>,
+    /// Mean settled thrust, g.
+    pub thrust_g: f64,
+    /// Its standard deviation (None for single-sample steps).
+    pub thrust_std_g: Option<f64>,
+    /// Mean voltage, V.
+    pub voltage_v: Option<f64>,
+    /// Mean current, A.
+    pub current_a: Option<f64>,
+    /// Mean electrical power, W.
+    pub power_w: Option<f64>,
+    /// Its standard deviation.
+    pub power_std_w: Option<f64>,
+    /// Mean speed, rpm.
+    pub speed_rpm: Option<f64>,
+    /// Mean torque, N·m.
+    pub torque_nm: Option<f64>,
+    /// Samples averaged.
+    pub samples: usize,
+    /// Samples dropped as the step's transient.
+    pub transient_samples: usize,
+    /// First source line of the step.
+    pub line: u64,
+}
+
+/// Rows that pass a `COLUMN=VALUE` filter (text equality after trimming).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RowFilter {
+    /// Column name.
+    pub column: String,
+    /// Required value.
+    pub value: String,
+}
+
+impl std::str::FromStr for RowFilter {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let (c, v) = s
+            .split_once('=')
+            .ok_or_else(|| format!("{s:?}: expected COLUMN=VALUE"))?;
+        Ok(Self {
+            column: c.trim().to_owned(),
+            value: v.trim().to_owned(),
+        })
+    }
+}
+
+impl Table {
+    /// Values of the distinct combinations of `columns`, for telling a user how to filter.
+    pub fn distinct(&self, columns: &[&str]) -> Vec<String> {
+        let mut seen: Vec<String> = Vec::new();
+        for r in 0..self.len() {
+            let key = columns
+                .iter()
+                .map(|c| format!("{c}={}", self.cell_text(r, c)))
+                .collect::<Vec<_>>()
+                .join(", ");
+            if !seen.contains(&key) {
+                seen.push(key);
+            }
+        }
+        seen
+    }
+
+    fn converted(
+        &self,
+        column: &str,
+        quantity: Quantity,
+        rows: &[usize],
+    ) -> Result<Vec<f64>, ImportError> {
+        let unit = split_unit(column).1;
+        let f = match unit {
+            None => 1.0,
+            Some(u) => factor(quantity, u).ok_or_else(|| ImportError::BadUnit {
+                source_name: self.source_name.clone(),
+                column: column.to_owned(),
+                unit: u.to_owned(),
+                quantity: format!("{quantity:?}").to_lowercase(),
+            })?,
+        };
+        rows.iter()
+            .map(|&r| self.cell_number(r, column).map(|v| v * f))
+            .collect()
+    }
+
+    /// Reads the mapped columns over the rows that pass every filter (and whose `valid` column,
+    /// if any, is true), converted to canonical units.
+    pub fn measurements(
+        &self,
+        map: &ColumnMap,
+        filters: &[RowFilter],
+    ) -> Result<Measurements, ImportError> {
+        let thrust_col = map
+            .thrust
+            .as_deref()
+            .ok_or_else(|| ImportError::MissingColumn {
+                source_name: self.source_name.clone(),
+                column: "for thrust (name it with --thrust)".into(),
+                available: self.available(),
+            })?;
+        for f in filters {
+            self.index(&f.column)?;
+        }
+        let valid = self.valid_rows()?;
+        let rows: Vec<usize> = (0..self.len())
+            .filter(|&r| valid[r])
+            .filter(|&r| {
+                filters
+                    .iter()
+                    .all(|f| self.cell_text(r, &f.column) == f.value)
+            })
+            .collect();
+        let mut notes = Vec::new();
+        let skipped_invalid = valid.iter().filter(|v| !**v).count();
+        if rows.is_empty() {
+            return Err(ImportError::Empty {
+                source_name: self.source_name.clone(),
+                message: if filters.is_empty() {
+                    "no valid rows".into()
+                } else {
+                    let cols: Vec<&str> = filters.iter().map(|f| f.column.as_str()).collect();
+                    format!(
+                        "no row matches the filter; the file has: {}",
+                        self.distinct(&cols).join("; ")
+                    )
+                },
+            });
+        }
+        let opt = |c: &Option<String>, q| -> Result<Option<Vec<f64>>, ImportError> {
+            c.as_deref()
+                .map(|c| self.converted(c, q, &rows))
+                .transpose()
+        };
+        let mut thrust_g = self.converted(thrust_col, Quantity::Thrust, &rows)?;
+        let voltage_v = opt(&map.voltage, Quantity::Voltage)?;
+        let current_a = opt(&map.current, Quantity::Current)?;
+        let logged_power = opt(&map.power, Quantity::Power)?;
+        let power_logged = logged_power.is_some();
+        let power_w = logged_power.or_else(|| match (&voltage_v, &current_a) {
+            (Some(v), Some(i)) => Some(v.iter().zip(i).map(|(v, i)| v * i).collect()),
+            _ => None,
+        });
+        let mut sorted = thrust_g.clone();
+        sorted.sort_by(f64::total_cmp);
+        if sorted[sorted.len() / 2] < 0.0 {
+            for t in &mut thrust_g {
+                *t = -*t;
+            }
+            notes.push(format!(
+                "thrust was negative in most rows (a load cell mounted the other way round); {thrust_col} was negated"
+            ));
+        }
+        Ok(Measurements {
+            thrust_g,
+            voltage_v,
+            current_a,
+            power_w,
+            power_logged,
+            throttle: opt(&map.throttle, Quantity::Throttle)?,
+            speed_rpm: opt(&map.speed, Quantity::Speed)?,
+            torque_nm: opt(&map.torque, Quantity::Torque)?,
+            lines: rows.iter().map(|&r| self.line(r)).collect(),
+            rows,
+            notes,
+            skipped_invalid,
+        })
+    }
+}
+
+fn mean(v: &[f64]) -> f64 {
+    v.iter().sum::<f64>() / v.len() as f64
+}
+
+fn std_dev(v: &[f64]) -> Option<f64> {
+    (v.len() > 1).then(|| {
+        let m = mean(v);
+        (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (v.len() - 1) as f64).sqrt()
+    })
+}
+
+/// Index of the first settled sample of a group: samples before it are the transient.
+///
+/// The settled level and noise come from the group's last half; leading samples more than four
+/// noise standard deviations (and more than 0.5 % of the level, so that a noiseless log does not
+/// call every wiggle a transient) from that level are dropped.
+fn settled_from(thrust: &[f64]) -> usize {
+    let n = thrust.len();
+    if n < 4 {
+        return 0;
+    }
+    let tail = &thrust[n / 2..];
+    let level = mean(tail);
+    let noise = std_dev(tail).unwrap_or(0.0);
+    let band = (4.0 * noise).max(0.005 * level.abs());
+    thrust[..n / 2]
+        .iter()
+        .position(|t| (t - level).abs() <= band)
+        .unwrap_or(n / 2)
+}
+
+impl Measurements {
+    /// One row per settled step (see the module documentation).
+    pub fn reduce_steps(&self) -> Vec<Step> {
+        let n = self.thrust_g.len();
+        let mut groups: Vec<(usize, usize)> = Vec::new();
+        let mut start = 0;
+        for i in 1..=n {
+            let boundary = i == n
+                || match &self.throttle {
+                    Some(t) => t[i] != t[i - 1],
+                    None => true,
+                };
+            if boundary {
+                groups.push((start, i));
+                start = i;
+            }
+        }
+        groups
+            .into_iter()
+            .map(|(a, b)| {
+                let k = a + settled_from(&self.thrust_g[a..b]);
+                let sl = |v: &Option<Vec<f64>>| v.as_ref().map(|v| mean(&v[k..b]));
+                Step {
+                    throttle: self.throttle.as_ref().map(|t| t[a]),
+                    thrust_g: mean(&self.thrust_g[k..b]),
+                    thrust_std_g: std_dev(&self.thrust_g[k..b]),
+                    voltage_v: sl(&self.voltage_v),
+                    current_a: sl(&self.current_a),
+                    power_w: sl(&self.power_w),
+                    power_std_w: self.power_w.as_ref().and_then(|p| std_dev(&p[k..b])),
+                    speed_rpm: sl(&self.speed_rpm),
+                    torque_nm: sl(&self.torque_nm),
+                    samples: b - k,
+                    transient_samples: k - a,
+                    line: self.lines[a],
+                }
+            })
+            .collect()
+    }
+}
+
+/// How to read a stand log.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct StandOptions {
+    /// Columns to use instead of the detected ones.
+    pub columns: ColumnMap,
+    /// Names for a file without a header row (or to rename a header's columns).
+    pub names: Option<Vec<String>>,
+    /// Keep only the rows that match every filter.
+    pub filters: Vec<RowFilter>,
+}
+
+/// A stand log read and reduced to steps.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StandLog {
+    /// What the columns were recognised as.
+    pub kind: LogKind,
+    /// The columns used.
+    pub columns: ColumnMap,
+    /// One row per settled step.
+    pub steps: Vec<Step>,
+    /// Whether power was logged or computed from voltage × current.
+    pub power_logged: bool,
+    /// What the reader did that a user should know.
+    pub notes: Vec<String>,
+    /// Rows skipped because their `valid` column was false (e.g. the supply was limiting).
+    pub skipped_invalid: usize,
+    /// The file's `#` comment lines.
+    pub comments: Vec<String>,
+    /// The file's bytes (for provenance hashes).
+    pub bytes: Vec<u8>,
+}
+
+impl StandLog {
+    /// Reads a stand log of any supported kind from a file.
+    pub fn read(path: &std::path::Path, options: &StandOptions) -> Result<Self, ImportError> {
+        let name = path.display().to_string();
+        let bytes = std::fs::read(path).map_err(|error| ImportError::Io {
+            source_name: name.clone(),
+            error,
+        })?;
+        Self::parse(bytes, &name, options)
+    }
+
+    /// Reads a stand log of any supported kind from bytes.
+    pub fn parse(bytes: Vec<u8>, name: &str, options: &StandOptions) -> Result<Self, ImportError> {
+        let table = Table::parse_with(&bytes, name, options.names.as_deref())?;
+        let (detected, kind) = ColumnMap::detect(&table);
+        let columns = detected.overridden_by(&options.columns);
+        let m = table.measurements(&columns, &options.filters)?;
+        let mut notes = m.notes.clone();
+        let steps = if kind == LogKind::Hoverbench {
+            // hoverbench sweeps already hold one row per settled step, with their spreads.
+            // An empty spread cell (a single-sample step) is no spread, not an error.
+            let spread = |c: &str, i: usize| -> Result<Option<f64>, ImportError> {
+                let r = m.rows[i];
+                if table.cell_text(r, c).is_empty() {
+                    Ok(None)
+                } else {
+                    table.cell_number(r, c).map(Some)
+                }
+            };
+            (0..m.thrust_g.len())
+                .map(|i| {
+                    let at = |v: &Option<Vec<f64>>| v.as_ref().map(|v| v[i]);
+                    Ok(Step {
+                        throttle: at(&m.throttle),
+                        thrust_g: m.thrust_g[i],
+                        thrust_std_g: spread("thrust_std_g", i)?,
+                        voltage_v: at(&m.voltage_v),
+                        current_a: at(&m.current_a),
+                        power_w: at(&m.power_w),
+                        power_std_w: spread("power_std_w", i)?,
+                        speed_rpm: at(&m.speed_rpm),
+                        torque_nm: at(&m.torque_nm),
+                        samples: 1,
+                        transient_samples: 0,
+                        line: m.lines[i],
+                    })
+                })
+                .collect::<Result<Vec<_>, ImportError>>()?
+        } else {
+            let steps = m.reduce_steps();
+            if steps.len() < m.thrust_g.len() {
+                notes.push(format!(
+                    "{} samples reduced to {} settled steps ({} transient samples dropped)",
+                    m.thrust_g.len(),
+                    steps.len(),
+                    steps.iter().map(|s| s.transient_samples).sum::<usize>()
+                ));
+            }
+            steps
+        };
+        Ok(Self {
+            kind,
+            columns,
+            steps,
+            power_logged: m.power_logged,
+            notes,
+            skipped_invalid: m.skipped_invalid,
+            comments: table.comments.clone(),
+            bytes,
+        })
+    }
+
+    /// Thrust of every step, g.
+    pub fn thrust_g(&self) -> Vec<f64> {
+        self.steps.iter().map(|s| s.thrust_g).collect()
+    }
+
+    /// A per-step quantity, if every step has it.
+    pub fn column(&self, f: impl Fn(&Step) -> Option<f64>) -> Option<Vec<f64>> {
+        self.steps.iter().map(f).collect()
+    }
+
+    /// Mean supply voltage over the steps, if logged.
+    pub fn mean_voltage_v(&self) -> Option<f64> {
+        self.column(|s| s.voltage_v)
+            .map(|v| v.iter().sum::<f64>() / v.len() as f64)
+    }
+}
+
+/// Writes steps as a hoverbench sweep CSV (the format `hoverbench fit` reads by default), with a
+/// comment block of `comments` lines first.
+pub fn steps_to_csv(steps: &[Step], comments: &[String]) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    for c in comments {
+        let _ = writeln!(s, "# {c}");
+    }
+    s.push_str(
+        "throttle,thrust_g,thrust_std_g,voltage_v,current_a,power_w,power_std_w,rpm,torque_nm,samples,transient_samples,source_line,valid\n",
+    );
+    let o = |v: Option<f64>| v.map_or(String::new(), |v| format!("{v}"));
+    for st in steps {
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{},{},{},{},{},{},{},true",
+            o(st.throttle),
+            st.thrust_g,
+            o(st.thrust_std_g),
+            o(st.voltage_v),
+            o(st.current_a),
+            o(st.power_w),
+            o(st.power_std_w),
+            o(st.speed_rpm),
+            o(st.torque_nm),
+            st.samples,
+            st.transient_samples,
+            st.line
+        );
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn stand_logs_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..300)) {
+            let _ = StandLog::parse(bytes, "fuzz", &StandOptions::default());
+        }
+
+        #[test]
+        fn stand_like_text_never_panics(
+            text in "(Time \\(s\\),ESC signal \\(µs\\),Thrust \\((gf|N|kgf)\\),Voltage \\(V\\),Current \\(A\\),\n)?([-0-9.,e ]{0,30}\n){0,8}",
+            names in proptest::option::of(Just(vec!["a_s".to_string(), "thrust_n".into(), "current_a".into()])),
+        ) {
+            let opts = StandOptions { names, ..Default::default() };
+            if let Ok(log) = StandLog::parse(text.into_bytes(), "fuzz", &opts) {
+                prop_assert!(!log.steps.is_empty());
+                for s in &log.steps {
+                    prop_assert!(s.thrust_g.is_finite());
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn step_test_reduces_to_settled_means() {
+        // Two steps: each starts with a 3-sample transient, then settles with small noise.
+        let mut csv = String::from(
+            "\u{feff}Time (s),ESC signal (µs),Thrust (N),Voltage (V),Current (A),App message,\n",
+        );
+        let mut t = 0.0;
+        for (esc, level) in [(1200, 1.0), (1300, 2.0)] {
+            for i in 0..12 {
+                let thrust = if i < 3 {
+                    level * (0.3 + 0.2 * f64::from(i))
+                } else {
+                    level + 0.001 * f64::from(i % 2)
+                };
+                csv.push_str(&format!("{t},{esc},{thrust},12.0,{},,\n", level * 3.0));
+                t += 0.1;
+            }
+        }
+        let table = Table::parse(csv.as_bytes(), "tyto.csv").unwrap();
+        let (map, kind) = ColumnMap::detect(&table);
+        assert_eq!(kind, LogKind::Tyto);
+        let m = table.measurements(&map, &[]).unwrap();
+        let steps = m.reduce_steps();
+        assert_eq!(steps.len(), 2);
+        assert_eq!(steps[0].transient_samples, 3);
+        assert_eq!(steps[0].samples, 9);
+        assert!(
+            (steps[1].thrust_g - 2.0005 * 1000.0 / crate::units::STANDARD_GRAVITY).abs() < 0.05
+        );
+        assert!((steps[1].power_w.unwrap() - 72.0).abs() < 1e-9);
+        assert_eq!(steps[1].throttle, Some(1300.0));
+    }
+
+    #[test]
+    fn negative_thrust_is_negated_and_said() {
+        let t = Table::parse(b"thrust_g,voltage_v,current_a\n-10,12,1\n-20,12,2\n", "neg").unwrap();
+        let (map, _) = ColumnMap::detect(&t);
+        let m = t.measurements(&map, &[]).unwrap();
+        assert_eq!(m.thrust_g, [10.0, 20.0]);
+        assert!(m.notes[0].contains("negated"));
+        assert_eq!(m.power_w.unwrap(), [12.0, 24.0]);
+        assert!(!m.power_logged);
+    }
+
+    #[test]
+    fn filters_select_rows_and_say_what_exists() {
+        let t = Table::parse(b"motor,thrust_g,power_w\nA,1,2\nB,3,4\n", "f").unwrap();
+        let (map, _) = ColumnMap::detect(&t);
+        let f: RowFilter = "motor=B".parse().unwrap();
+        let m = t.measurements(&map, &[f]).unwrap();
+        assert_eq!(m.thrust_g, [3.0]);
+        let e = t
+            .measurements(&map, &["motor=C".parse().unwrap()])
+            .unwrap_err();
+        assert!(e.to_string().contains("motor=A; motor=B"), "{e}");
+    }
+
+    #[test]
+    fn unknown_unit_is_named() {
+        let t = Table::parse(b"Thrust (furlongs),x\n1,2\n", "u").unwrap();
+        let (map, _) = ColumnMap::detect(&t);
+        let e = t.measurements(&map, &[]).unwrap_err().to_string();
+        assert!(e.contains("\"furlongs\""), "{e}");
+    }
+}

@@ -1,0 +1,104 @@
+//! Real measurements from other people's rigs (read from `../shared/data/real`, which CI has
+//! beside the clone; licences and sources are in each folder there).
+
+use std::path::{Path, PathBuf};
+
+use import::stand::{ColumnMap, LogKind, StandLog, StandOptions};
+
+fn shared(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/data/real")
+        .join(rel)
+}
+
+#[test]
+fn every_rcbenchmark_export_imports() {
+    let dir = shared("rcbenchmark");
+    let mut files = 0;
+    for entry in std::fs::read_dir(&dir).expect("../shared/data/real/rcbenchmark") {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "csv") {
+            continue;
+        }
+        files += 1;
+        let log = StandLog::read(&path, &StandOptions::default())
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        assert_eq!(log.kind, LogKind::Tyto, "{}", path.display());
+        assert!(log.power_logged);
+        assert!(!log.steps.is_empty());
+        for s in &log.steps {
+            // The stand logs electrical power beside voltage and current: they must agree.
+            let (v, i, p) = (
+                s.voltage_v.unwrap(),
+                s.current_a.unwrap(),
+                s.power_w.unwrap(),
+            );
+            assert!(
+                (v * i - p).abs() <= 0.02 * p.abs() + 0.05,
+                "{}: {v} V × {i} A vs {p} W",
+                path.display()
+            );
+            assert!((1000.0..=2200.0).contains(&s.throttle.unwrap()));
+        }
+    }
+    assert_eq!(files, 12);
+}
+
+#[test]
+fn rcbenchmark_step_export_gives_one_row_per_step() {
+    let log = StandLog::read(
+        &shared("rcbenchmark/StepsTest_2020-05-22_102946.csv"),
+        &StandOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(log.steps.len(), 21);
+    assert_eq!(log.steps[0].throttle, Some(1200.0));
+    assert!((log.steps[0].thrust_g - 6.3848).abs() < 1e-3);
+    // thrust rises with the ESC command over the step test
+    assert!(log.steps.last().unwrap().thrust_g > 5.0 * log.steps[0].thrust_g);
+}
+
+#[test]
+fn ctu_mrs_table_filters_to_one_motor_and_propeller() {
+    let opts = StandOptions {
+        filters: vec!["propeller=DJI plastic 9450".parse().unwrap()],
+        ..Default::default()
+    };
+    let log = StandLog::read(&shared("ctu-mrs/motor_tests.csv"), &opts).unwrap();
+    assert_eq!(log.kind, LogKind::Hoverbench);
+    assert_eq!(log.steps.len(), 6);
+    assert_eq!(log.steps[5].thrust_g, 1024.0);
+    assert!((log.steps[5].power_w.unwrap() - 232.72).abs() < 1e-9);
+}
+
+#[test]
+fn mit_gfx_sweep_without_header_or_voltage() {
+    let opts = StandOptions {
+        names: Some(
+            ["esc_us", "torque_nm", "thrust_n", "rpm", "current_a"]
+                .map(String::from)
+                .to_vec(),
+        ),
+        columns: ColumnMap {
+            throttle: Some("esc_us".into()),
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let log = StandLog::read(&shared("mit-gfx/motor_10inch_prop.txt"), &opts).unwrap();
+    // The file sweeps up to 2000 µs and back down: the two readings at 2000 µs form one step.
+    let last = log
+        .steps
+        .iter()
+        .find(|s| s.throttle == Some(2000.0))
+        .unwrap();
+    assert_eq!(last.samples + last.transient_samples, 2);
+    // 7.2182 N and 7.1553 N at 2000 µs, averaged: in grams-force.
+    assert!(
+        (last.thrust_g - (7.2182 + 7.1553) / 2.0 * 101.971_6).abs() < 0.5,
+        "{}",
+        last.thrust_g
+    );
+    assert!(last.power_w.is_none(), "no voltage: power cannot be known");
+    assert!(last.current_a.is_some());
+}
