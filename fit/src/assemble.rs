@@ -98,12 +98,11 @@ impl Solved {
         let dof = self.n_points.saturating_sub(p);
         // Ratios and roots are formed in normalised units (no overflow), then
         // scaled back: rss = 2^(e_w + 2 e_y)·rss', σ = 2^e_y·√(2^e_w)·σ'.
+        // A constant y is fitted exactly by any degree ≥ 0.
         let r_squared = if self.sst > 0.0 {
             1.0 - self.rss / self.sst
-        } else if self.rss == 0.0 {
-            1.0
         } else {
-            0.0
+            1.0
         };
         let (yu, wu) = (self.y_unit, self.w_unit);
         let sigma_norm = (dof > 0).then(|| (self.rss / dof as f64).sqrt());

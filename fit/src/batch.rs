@@ -23,10 +23,11 @@ const MAX_REFINEMENT_STEPS: usize = 8;
 /// iteration is considered to have stopped contracting.
 const MIN_CONTRACTION: f64 = 0.5;
 
-/// Relative correction below which the solution is at double-double
-/// precision; above it at the end, [`FitWarning::RefinementStalled`](crate::FitWarning::RefinementStalled)
+/// Relative size of the last correction below which the refinement counts
+/// as converged (four orders beyond double precision); if it stops above
+/// this, [`FitWarning::RefinementStalled`](crate::FitWarning::RefinementStalled)
 /// is reported.
-const CONVERGED_REL: f64 = 1e-24;
+const CONVERGED_REL: f64 = 1e-20;
 
 /// Least-squares polynomial of the given degree through `(x, y)`.
 ///
@@ -222,22 +223,23 @@ fn residual_dd(a: &[Dd], t: Dd, y: f64) -> Dd {
     Dd::from_f64(y) - v
 }
 
-/// `g = Aᵀ W r` with `r = y − A a`, all in double-double.
-fn gradient(a: &[Dd], t: &[Dd], y: &[f64], w: Option<&[f64]>) -> Vec<f64> {
+/// `g = Aᵀ W r` with `r = y − A a`, and the objective `Σ wᵢ rᵢ²`, all in
+/// double-double.
+fn gradient(a: &[Dd], t: &[Dd], y: &[f64], w: Option<&[f64]>) -> (Vec<f64>, Dd) {
     let p = a.len();
     let mut g = vec![DdSum::default(); p];
+    let mut rss = DdSum::default();
     for (i, (&ti, &yi)) in t.iter().zip(y).enumerate() {
-        let mut r = residual_dd(a, ti, yi);
-        if let Some(w) = w {
-            r = r.mul_f64(w[i]);
-        }
-        let mut pw = r;
+        let r = residual_dd(a, ti, yi);
+        let wr = w.map_or(r, |w| r.mul_f64(w[i]));
+        rss.add(wr * r);
+        let mut pw = wr;
         for gk in g.iter_mut() {
             gk.add(pw);
             pw = pw * ti;
         }
     }
-    g.into_iter().map(|s| s.0.to_f64()).collect()
+    (g.into_iter().map(|s| s.0.to_f64()).collect(), rss.0)
 }
 
 fn fit(x: &[f64], y: &[f64], w: Option<&[f64]>, degree: usize) -> Result<PolyFit, FitError> {
@@ -284,11 +286,32 @@ fn fit(x: &[f64], y: &[f64], w: Option<&[f64]>, degree: usize) -> Result<PolyFit
     // the residual and Aᵀ W r in double-double. The fixed point satisfies the
     // exact normal equations, and each step contracts the error by about
     // ε·κ², so a few steps reach double-double accuracy.
+    //
+    // Safeguard for very ill-conditioned problems (ε·κ² ≳ 1), where the
+    // iteration need not contract: a step is kept only while the corrections
+    // shrink and the objective does not grow; otherwise the best iterate so
+    // far (at worst the QR solution) is returned.
     let mut a: Vec<Dd> = a0.into_iter().map(Dd::from_f64).collect();
+    let mut best: Option<(Vec<Dd>, Dd)> = None;
     let mut iterations = 0;
     let mut last_rel = f64::INFINITY;
-    for _ in 0..MAX_REFINEMENT_STEPS {
-        let g = gradient(&a, &t, y, w);
+    for step in 0..=MAX_REFINEMENT_STEPS {
+        let (g, objective) = gradient(&a, &t, y, w);
+        let worse = best
+            .as_ref()
+            .is_some_and(|(_, best_obj)| (objective - *best_obj).hi > 0.0);
+        if worse {
+            // Undo the last step (one was taken, or `best` would be empty).
+            if let Some((best_a, _)) = best {
+                a = best_a;
+            }
+            iterations -= 1;
+            break;
+        }
+        best = Some((a.clone(), objective));
+        if step == MAX_REFINEMENT_STEPS {
+            break;
+        }
         let delta = solve_upper(&r, p, &solve_upper_transposed(&r, p, &g));
         let a_norm = a.iter().fold(0.0_f64, |m, v| m.max(v.hi.abs()));
         let d_norm = delta.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
@@ -405,6 +428,18 @@ mod tests {
         assert_eq!(f.stats().r_squared, 1.0);
         assert_eq!(f.eval(1.5), 4.0);
         assert_eq!(f.derivative(0.3), 2.0);
+    }
+
+    #[test]
+    fn constant_data_has_unit_r_squared() {
+        let f = fit_polynomial(&[0.0, 1.0, 2.0, 3.0], &[0.1; 4], 2).unwrap();
+        assert_eq!(f.stats().r_squared, 1.0);
+        assert!((f.eval(1.5) - 0.1).abs() < 1e-16);
+        assert!(
+            f.warnings()
+                .iter()
+                .all(|w| !matches!(w, crate::FitWarning::NotMonotoneIncreasing { .. }))
+        );
     }
 
     #[test]

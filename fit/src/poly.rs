@@ -42,10 +42,8 @@ pub struct FitStats {
     pub rss: f64,
     /// Root-mean-square raw residual `√(Σ rᵢ² / n)`.
     pub rmse: f64,
-    /// Coefficient of determination `1 − rss / Σ wᵢ (yᵢ − ȳ)²`
-    /// (defined as 1 when `y` is constant and fitted exactly, 0 when it is
-    /// constant but not fitted exactly — which cannot happen for degree ≥ 0
-    /// beyond rounding).
+    /// Coefficient of determination `1 − rss / Σ wᵢ (yᵢ − ȳ)²`; 1 when `y`
+    /// is constant (the fit is then exact).
     pub r_squared: f64,
     /// Residual standard deviation `√(rss / dof)`; `None` when `dof == 0`
     /// (an interpolating fit has no residual information).

@@ -47,7 +47,8 @@ pub enum ThrustLimitKind {
         from_throttle: f64,
         /// Last throttle value of the plateau.
         to_throttle: f64,
-        /// Number of sweep points on the plateau.
+        /// Number of sweep points averaged (plateau members; isolated low
+        /// outliers between `from_throttle` and `to_throttle` are excluded).
         n_points: usize,
     },
     /// The thrust was still rising at the end of the sweep: the limit is the
@@ -94,10 +95,13 @@ pub struct ThrustLimit {
 /// * The plateau starts at the first reading that no later reading exceeds
 ///   by more than `k_sigma · √(σⱼ² + σₖ²)`: from there on, more throttle
 ///   yields no more thrust within noise.
-/// * Readings at the end of the sweep that lie significantly below the
-///   plateau mean (by more than `k_sigma · √(σᵢ² + σ_mean²)`) are a sag:
-///   they are excluded and reported as [`ThrustSag`]; the limit is the
-///   maximum *sustained* thrust, the mean over the plateau.
+/// * The plateau is made of the readings from there on that are not
+///   significantly below the plateau mean (by more than
+///   `k_sigma · √(σᵢ² + σ_mean²)`), found by iterating to a fixed point;
+///   isolated low readings inside it are treated as outliers and left out.
+///   The limit is the maximum *sustained* thrust, the mean over the plateau.
+/// * Readings after the last plateau member (all significantly lower) are a
+///   sag, reported as [`ThrustSag`].
 /// * If there is no sag and the plateau has fewer than
 ///   `min_plateau_points` readings, the thrust was still rising: the result
 ///   is [`TopOfRange`](ThrustLimitKind::TopOfRange) with the last reading,
@@ -119,30 +123,35 @@ pub fn thrust_limit(
     let pair = |i: usize, j: usize| z * sigma[i].hypot(sigma[j]);
 
     // Plateau start: the first reading that no later reading exceeds by
-    // more than noise ("more throttle yields no more thrust").
-    let start = (0..n - 1)
-        .rev()
-        .take_while(|&k| (k + 1..n).all(|j| thrust_g[j] - thrust_g[k] <= pair(j, k)))
-        .last()
+    // more than noise ("more throttle yields no more thrust"). The highest
+    // reading always qualifies, so the start is at or before it.
+    let start = (0..n)
+        .find(|&k| (k + 1..n).all(|j| thrust_g[j] - thrust_g[k] <= pair(j, k)))
         .unwrap_or(n - 1);
 
-    // Plateau end: drop the trailing run of readings significantly below
-    // the plateau mean (sag), re-estimating the mean until stable.
-    let mut end = n - 1;
-    let (mut mean, mut sigma_mean) = mean_and_sigma(&thrust_g[start..=end], &sigma[start..=end]);
+    // Plateau members: readings from the start on that are not
+    // significantly below the members' mean. Dropping low readings raises
+    // the mean, so iterate to the fixed point (the set only shrinks, and the
+    // highest reading always stays in it).
+    let mut member = vec![false; n];
+    member[start..].fill(true);
+    let (mut mean, mut sigma_mean) = members_mean(thrust_g, &sigma, &member);
     loop {
-        let below = |i: usize| mean - thrust_g[i] > z * sigma[i].hypot(sigma_mean);
-        let new_end = (start + 1..=end)
-            .rev()
-            .find(|&i| !below(i))
-            .unwrap_or(start);
-        if new_end == end {
+        let mut changed = false;
+        for i in start..n {
+            if member[i] && mean - thrust_g[i] > z * sigma[i].hypot(sigma_mean) {
+                member[i] = false;
+                changed = true;
+            }
+        }
+        if !changed {
             break;
         }
-        end = new_end;
-        (mean, sigma_mean) = mean_and_sigma(&thrust_g[start..=end], &sigma[start..=end]);
+        (mean, sigma_mean) = members_mean(thrust_g, &sigma, &member);
     }
-    let count = end - start + 1;
+    let first = member.iter().position(|&m| m).unwrap_or(start);
+    let end = member.iter().rposition(|&m| m).unwrap_or(start);
+    let count = member.iter().filter(|&&m| m).count();
 
     if end == n - 1 && count < opts.min_plateau_points {
         return Ok(ThrustLimit {
@@ -154,10 +163,13 @@ pub fn thrust_limit(
         });
     }
 
-    let plateau = &thrust_g[start..=end];
     let k = count as f64;
     let scatter = if count > 1 {
-        (plateau.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (k - 1.0)).sqrt() / k.sqrt()
+        let ss: f64 = (0..n)
+            .filter(|&i| member[i])
+            .map(|i| (thrust_g[i] - mean).powi(2))
+            .sum();
+        (ss / (k - 1.0)).sqrt() / k.sqrt()
     } else {
         0.0
     };
@@ -170,7 +182,7 @@ pub fn thrust_limit(
         thrust_g: mean,
         uncertainty_g: scatter.max(sigma_mean),
         kind: ThrustLimitKind::Plateau {
-            from_throttle: throttle[start],
+            from_throttle: throttle[first],
             to_throttle: throttle[end],
             n_points: count,
         },
@@ -179,11 +191,22 @@ pub fn thrust_limit(
     })
 }
 
-/// Mean of the readings and its propagated standard error `√(Σσᵢ²)/n`.
-fn mean_and_sigma(thrust: &[f64], sigma: &[f64]) -> (f64, f64) {
-    let k = thrust.len() as f64;
-    let mean = thrust.iter().sum::<f64>() / k;
-    (mean, sigma.iter().map(|s| s * s).sum::<f64>().sqrt() / k)
+/// Mean of the member readings and its propagated standard error
+/// `√(Σσᵢ²)/n`. Each term is divided by `n` before summing so that readings
+/// near `f64::MAX` cannot overflow the sum.
+fn members_mean(thrust: &[f64], sigma: &[f64], member: &[bool]) -> (f64, f64) {
+    let n = member.iter().filter(|&&m| m).count() as f64;
+    let picked = || {
+        thrust
+            .iter()
+            .zip(sigma)
+            .zip(member)
+            .filter(|(_, m)| **m)
+            .map(|(ts, _)| ts)
+    };
+    let mean = picked().map(|(&t, _)| t / n).sum();
+    let var: f64 = picked().map(|(_, &s)| (s / n) * (s / n)).sum();
+    (mean, var.sqrt())
 }
 
 fn validate(

@@ -1,6 +1,9 @@
 //! Property tests of the polynomial fits.
 
-use fit::{FitError, MAX_DEGREE, StreamingPolyFit, fit_polynomial, fit_polynomial_weighted};
+use fit::{
+    FitError, MAX_DEGREE, StreamingPolyFit, ThrustLimitKind, ThrustLimitOptions, fit_polynomial,
+    fit_polynomial_weighted, thrust_limit,
+};
 use proptest::prelude::*;
 
 /// Any f64 at all: normal, subnormal, zero, infinite, NaN.
@@ -203,5 +206,58 @@ proptest! {
         }
         let (sf, sg) = (f.stats(), g.stats());
         prop_assert!((sf.r_squared - sg.r_squared).abs() <= 1e-9);
+    }
+
+    /// Thrust-limit extraction never panics, and a result lies within the
+    /// range of the readings with a non-negative uncertainty.
+    #[test]
+    fn thrust_limit_never_panics(
+        throttle in prop::collection::vec(any_f64(), 0..16),
+        thrust in prop::collection::vec(any_f64(), 0..16),
+        std in prop::option::of(prop::collection::vec(any_f64(), 0..16)),
+        noise in prop::option::of(any_f64()),
+        k_sigma in any_f64(),
+        min_plateau_points in 0usize..6,
+    ) {
+        let opts = ThrustLimitOptions {
+            thrust_std_g: std.as_deref(),
+            noise_std_g: noise,
+            k_sigma,
+            min_plateau_points,
+        };
+        if let Ok(r) = thrust_limit(&throttle, &thrust, &opts) {
+            let lo = thrust.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = thrust.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            prop_assert!(r.thrust_g >= lo && r.thrust_g <= hi, "{:?}", r);
+            prop_assert!(r.uncertainty_g >= 0.0);
+            if let ThrustLimitKind::Plateau { n_points, .. } = r.kind {
+                prop_assert!(n_points >= 1 && n_points <= thrust.len());
+            }
+        }
+    }
+
+    /// Increasing sweeps of finite readings always yield a limit.
+    #[test]
+    fn thrust_limit_of_valid_sweeps_is_ok(
+        thrust in prop::collection::vec(0.0..1000.0_f64, 2..30),
+        sigma in 0.0..20.0_f64,
+    ) {
+        let throttle: Vec<f64> = (0..thrust.len()).map(|i| i as f64).collect();
+        let opts = ThrustLimitOptions { noise_std_g: Some(sigma), ..Default::default() };
+        let r = thrust_limit(&throttle, &thrust, &opts).unwrap();
+        // The limit never exceeds the best reading, and the best reading
+        // (first occurrence) lies within the reported plateau.
+        let (best, max) = thrust
+            .iter()
+            .copied()
+            .enumerate()
+            .fold((0, f64::NEG_INFINITY), |b, (i, v)| if v > b.1 { (i, v) } else { b });
+        prop_assert!(r.thrust_g <= max);
+        match r.kind {
+            ThrustLimitKind::Plateau { from_throttle, to_throttle, .. } => {
+                prop_assert!(from_throttle <= throttle[best] && throttle[best] <= to_throttle, "{:?}", r);
+            }
+            ThrustLimitKind::TopOfRange => prop_assert_eq!(r.thrust_g, thrust[thrust.len() - 1]),
+        }
     }
 }

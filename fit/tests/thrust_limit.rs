@@ -207,3 +207,35 @@ fn invalid_sweeps_are_rejected_with_context() {
         })
     ));
 }
+
+#[test]
+fn isolated_low_reading_inside_the_plateau_is_an_outlier_not_a_sag() {
+    let throttle = [0.0, 20.0, 40.0, 60.0, 70.0, 80.0, 90.0, 100.0];
+    let thrust = [0.0, 120.0, 380.0, 600.0, 601.0, 585.0, 599.0, 600.5];
+    let opts = ThrustLimitOptions {
+        noise_std_g: Some(2.0),
+        ..Default::default()
+    };
+    let r = thrust_limit(&throttle, &thrust, &opts).unwrap();
+    assert_eq!(
+        r.kind,
+        ThrustLimitKind::Plateau {
+            from_throttle: 60.0,
+            to_throttle: 100.0,
+            n_points: 4
+        }
+    );
+    assert!(r.sag.is_none());
+    assert!((r.thrust_g - 600.125).abs() < 1e-12);
+}
+
+#[test]
+fn extreme_readings_do_not_overflow_the_mean() {
+    let r = thrust_limit(
+        &[0.0, 1.0, 2.0],
+        &[f64::MAX, f64::MAX, f64::MAX],
+        &ThrustLimitOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(r.thrust_g, f64::MAX);
+}

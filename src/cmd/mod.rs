@@ -3,6 +3,7 @@
 use clap::Subcommand;
 
 pub mod estimate;
+pub mod export;
 pub mod fit;
 pub mod import;
 pub mod mission;
@@ -18,6 +19,8 @@ pub enum Command {
     Import(import::Args),
     /// Estimate hover endurance for one battery and payload (eqs. 1-6).
     Estimate(estimate::Args),
+    /// Write parameters for PX4, ArduPilot or C firmware from a characterisation.
+    Export(export::Args),
     /// Find the battery mass that maximises endurance, or rank a battery catalogue (Fig. 4-5).
     #[command(alias = "optimize")]
     Optimise(optimise::Args),
@@ -33,6 +36,7 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Fit(a) => fit::run(a),
         Command::Import(a) => import::run(a),
         Command::Estimate(a) => estimate::run(a),
+        Command::Export(a) => export::run(a),
         Command::Optimise(a) => optimise::run(a),
         Command::Mission(a) => mission::run(a),
         Command::Paper(a) => paper::run(a),

@@ -1,0 +1,217 @@
+//! `hoverbench export`: parameters for flight stacks (PX4, ArduPilot) and firmware (C header).
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result, bail};
+use autopilot::{
+    ArduPilotParams, BatterySpec, Command, ExportInput, Px4Params, SpinRange, ardupilot_actuator,
+    fit_thrust_expo,
+};
+use estimator::file::ParamsFile;
+use import::stand::StandLog;
+
+use crate::output::{self, StandArgs};
+
+/// Write parameters that real flight stacks and firmware load.
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    #[command(subcommand)]
+    target: Target,
+}
+
+#[derive(Debug, clap::Subcommand)]
+enum Target {
+    /// PX4 (QGroundControl .params): THR_MDL_FAC, MPC_THR_HOVER, BAT1_*.
+    Px4(FlightArgs),
+    /// ArduPilot (.param): MOT_THST_EXPO, MOT_SPIN_MIN/MAX, MOT_THST_HOVER, BATT_*, MOT_BAT_VOLT_*.
+    Ardupilot(ArduArgs),
+    /// A C header with the estimator's parameters (curve constants, evaluator, binary blob).
+    CHeader(HeaderArgs),
+}
+
+#[derive(Debug, clap::Args)]
+struct FlightArgs {
+    /// A sweep of thrust against the ESC command (hoverbench's, or another stand's log).
+    #[arg(long, value_name = "FILE")]
+    sweep: PathBuf,
+    #[command(flatten)]
+    stand: StandArgs,
+    /// PWM of zero command, µs (when the command is logged in µs).
+    #[arg(long, value_name = "US", default_value_t = 1000.0)]
+    pwm_min: f64,
+    /// PWM of full command, µs.
+    #[arg(long, value_name = "US", default_value_t = 2000.0)]
+    pwm_max: f64,
+    /// Take-off mass for the hover throttle (kg; or e.g. 575g).
+    #[arg(long, value_name = "MASS", value_parser = output::positive_mass_kg, allow_negative_numbers = true)]
+    takeoff_mass: Option<f64>,
+    /// Rotors sharing the take-off mass.
+    #[arg(long, value_name = "N", default_value_t = 4, value_parser = clap::value_parser!(u8).range(1..))]
+    rotors: u8,
+    /// Battery cells in series (with --capacity: battery parameters).
+    #[arg(long, value_name = "N", requires = "capacity", value_parser = clap::value_parser!(u8).range(1..=24))]
+    cells: Option<u8>,
+    /// Battery capacity, mAh.
+    #[arg(long, value_name = "MAH", requires = "cells")]
+    capacity: Option<f64>,
+    /// Landing voltage per cell, V (the paper's 3.0 V).
+    #[arg(long, value_name = "V", default_value_t = 3.0)]
+    empty_cell_v: f64,
+    /// Full voltage per cell, V.
+    #[arg(long, value_name = "V", default_value_t = 4.2)]
+    full_cell_v: f64,
+    /// Pack internal resistance, Ω, when estimated.
+    #[arg(long, value_name = "OHM")]
+    internal_resistance: Option<f64>,
+    /// Write the file here (otherwise print it).
+    #[arg(short, long, value_name = "FILE")]
+    output: Option<PathBuf>,
+}
+
+#[derive(Debug, clap::Args)]
+struct ArduArgs {
+    #[command(flatten)]
+    flight: FlightArgs,
+    /// MOT_SPIN_MIN: PWM fraction where the motors spin reliably.
+    #[arg(long, value_name = "FRACTION", default_value_t = 0.15)]
+    spin_min: f64,
+    /// MOT_SPIN_MAX: PWM fraction where thrust saturates.
+    #[arg(long, value_name = "FRACTION", default_value_t = 0.95)]
+    spin_max: f64,
+}
+
+#[derive(Debug, clap::Args)]
+struct HeaderArgs {
+    /// The parameter file.
+    params: PathBuf,
+    /// Write the header here (otherwise print it).
+    #[arg(short, long, value_name = "FILE")]
+    output: Option<PathBuf>,
+}
+
+fn emit(text: &str, output: Option<&PathBuf>) -> Result<()> {
+    match output {
+        Some(path) => {
+            output::write_atomic(path, text.as_bytes())?;
+            eprintln!("wrote {}", path.display());
+        }
+        None => print!("{text}"),
+    }
+    Ok(())
+}
+
+/// A sweep's commands (as fractions of full scale) and thrusts, and the battery described.
+struct Sweep {
+    command: Vec<f64>,
+    thrust_g: Vec<f64>,
+    battery: Option<BatterySpec>,
+}
+
+impl Sweep {
+    fn input(&self, a: &FlightArgs, expo: autopilot::ExpoFit) -> ExportInput {
+        ExportInput {
+            expo,
+            sweep_name: a.sweep.display().to_string(),
+            takeoff_mass_kg: a.takeoff_mass,
+            rotors: a.rotors,
+            battery: self.battery,
+        }
+    }
+}
+
+fn sweep(a: &FlightArgs) -> Result<Sweep> {
+    let log = StandLog::read(&a.sweep, &a.stand.options())?;
+    let throttle = log.column(|s| s.throttle).with_context(|| {
+        format!(
+            "{}: the sweep has no throttle column, so the thrust curve against the command cannot be fitted (name it with --throttle)",
+            a.sweep.display()
+        )
+    })?;
+    let command = match Command::guess(&throttle) {
+        Command::Microseconds { .. } => {
+            if a.pwm_max.is_nan() || a.pwm_min.is_nan() || a.pwm_max <= a.pwm_min {
+                bail!(
+                    "--pwm-max ({}) must be above --pwm-min ({})",
+                    a.pwm_max,
+                    a.pwm_min
+                );
+            }
+            Command::Microseconds {
+                min_us: a.pwm_min,
+                max_us: a.pwm_max,
+            }
+        }
+        other => other,
+    };
+    let p: Vec<f64> = throttle.iter().map(|&t| command.normalise(t)).collect();
+    let battery = match (a.cells, a.capacity) {
+        (Some(cells), Some(capacity_mah)) => {
+            if !(capacity_mah.is_finite() && capacity_mah > 0.0) {
+                bail!("--capacity must be a positive number of mAh, got {capacity_mah}");
+            }
+            if !(a.empty_cell_v > 0.0 && a.full_cell_v > a.empty_cell_v) {
+                bail!("need 0 < --empty-cell-v < --full-cell-v");
+            }
+            Some(BatterySpec {
+                cells,
+                capacity_mah,
+                empty_cell_v: a.empty_cell_v,
+                full_cell_v: a.full_cell_v,
+                internal_resistance_ohm: a.internal_resistance,
+            })
+        }
+        _ => None,
+    };
+    Ok(Sweep {
+        command: p,
+        thrust_g: log.thrust_g(),
+        battery,
+    })
+}
+
+/// Runs the subcommand.
+pub fn run(args: Args) -> Result<()> {
+    match args.target {
+        Target::Px4(a) => {
+            let s = sweep(&a)?;
+            let expo = fit_thrust_expo(&s.command, &s.thrust_g)
+                .with_context(|| format!("fitting THR_MDL_FAC to {}", a.sweep.display()))?;
+            emit(
+                &Px4Params::new(&s.input(&a, expo))?.render(),
+                a.output.as_ref(),
+            )
+        }
+        Target::Ardupilot(ar) => {
+            let a = &ar.flight;
+            let spin = SpinRange {
+                spin_min: ar.spin_min,
+                spin_max: ar.spin_max,
+            };
+            spin.validate()?;
+            let s = sweep(a)?;
+            let act: Vec<f64> = s
+                .command
+                .iter()
+                .map(|&p| ardupilot_actuator(p, spin.spin_min, spin.spin_max))
+                .collect();
+            let expo = fit_thrust_expo(&act, &s.thrust_g)
+                .with_context(|| format!("fitting MOT_THST_EXPO to {}", a.sweep.display()))?;
+            emit(
+                &ArduPilotParams::new(&s.input(a, expo), spin)?.render(),
+                a.output.as_ref(),
+            )
+        }
+        Target::CHeader(h) => {
+            let file = ParamsFile::load(&h.params)?;
+            let params = file
+                .to_params()
+                .with_context(|| format!("{} cannot drive the estimator", h.params.display()))?;
+            let mut buf = [0u8; estimator::params::MAX_BLOB_LEN];
+            let n = params.encode(&mut buf)?;
+            emit(
+                &autopilot::c_header(&params, &buf[..n], "HOVERBENCH_PARAMS_H"),
+                h.output.as_ref(),
+            )
+        }
+    }
+}

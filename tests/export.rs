@@ -1,0 +1,146 @@
+//! `hoverbench export`: the flight-stack files and the C header, checked end to end.
+
+use std::path::{Path, PathBuf};
+use std::process::Command as Process;
+
+use assert_cmd::Command;
+
+fn data(name: &str) -> String {
+    let p: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(name);
+    p.to_str().unwrap().to_owned()
+}
+
+fn shared(rel: &str) -> String {
+    let p: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/real")
+        .join(rel);
+    p.to_str().unwrap().to_owned()
+}
+
+fn ok(args: &[&str]) -> String {
+    let out = Command::cargo_bin("hoverbench")
+        .unwrap()
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+#[test]
+fn px4_and_ardupilot_files_from_a_real_stand_export() {
+    let sweep = shared("rcbenchmark/StepsTest_2020-05-22_102946.csv");
+    let px4 = ok(&[
+        "export",
+        "px4",
+        "--sweep",
+        &sweep,
+        "--takeoff-mass",
+        "80g",
+        "--cells",
+        "2",
+        "--capacity",
+        "650",
+    ]);
+    let px4 = px4.replace(&sweep, "SWEEP");
+    insta::assert_snapshot!("px4_params", px4);
+    let ardu = ok(&[
+        "export",
+        "ardupilot",
+        "--sweep",
+        &sweep,
+        "--takeoff-mass",
+        "80g",
+        "--cells",
+        "2",
+        "--capacity",
+        "650",
+    ]);
+    let ardu = ardu.replace(&sweep, "SWEEP");
+    insta::assert_snapshot!("ardupilot_param", ardu);
+}
+
+#[test]
+fn c_header_compiles_and_agrees_with_the_estimator() {
+    let dir = tempfile::tempdir().unwrap();
+    let params = dir.path().join("params.toml");
+    ok(&[
+        "fit",
+        &data("paper-sweep.csv"),
+        "--limit",
+        &data("paper-limit-9v.csv"),
+        "-o",
+        params.to_str().unwrap(),
+    ]);
+    let header = dir.path().join("hoverbench_params.h");
+    Command::cargo_bin("hoverbench")
+        .unwrap()
+        .args([
+            "export",
+            "c-header",
+            params.to_str().unwrap(),
+            "-o",
+            header.to_str().unwrap(),
+        ])
+        .assert()
+        .success();
+    let main_c = dir.path().join("main.c");
+    std::fs::write(
+        &main_c,
+        "#include <stdio.h>\n#include \"hoverbench_params.h\"\n\
+         int main(void) { printf(\"%.12e %d %d\\n\", hb_power_w(150.0), HB_ROTOR_COUNT, (int)sizeof HB_PARAMS_BLOB); return 0; }\n",
+    )
+    .unwrap();
+    let exe = dir.path().join("check");
+    let cc = Process::new("cc")
+        .args(["-std=c99", "-Wall", "-Werror", "-o"])
+        .arg(&exe)
+        .arg(&main_c)
+        .output()
+        .expect("a C compiler (cc) on PATH");
+    assert!(
+        cc.status.success(),
+        "{}",
+        String::from_utf8_lossy(&cc.stderr)
+    );
+    let out = String::from_utf8(Process::new(&exe).output().unwrap().stdout).unwrap();
+    let fields: Vec<&str> = out.split_whitespace().collect();
+    let c_power: f64 = fields[0].parse().unwrap();
+    let file = estimator::file::ParamsFile::load(&params).unwrap();
+    let p = file.to_params().unwrap();
+    let rust_power = p.curve.eval_unchecked(150.0);
+    assert!(
+        (c_power - rust_power).abs() < 1e-9 * rust_power,
+        "{c_power} vs {rust_power}"
+    );
+    assert_eq!(fields[1], "4");
+    let mut buf = [0u8; estimator::params::MAX_BLOB_LEN];
+    assert_eq!(
+        fields[2].parse::<usize>().unwrap(),
+        p.encode(&mut buf).unwrap()
+    );
+}
+
+#[test]
+fn export_without_throttle_says_so() {
+    let out = Command::cargo_bin("hoverbench")
+        .unwrap()
+        .args([
+            "export",
+            "px4",
+            "--sweep",
+            &shared("ctu-mrs/motor_tests.csv"),
+            "--where",
+            "propeller=Carbon fiber 9450",
+        ])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("no throttle column"));
+}
