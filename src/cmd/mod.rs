@@ -9,6 +9,7 @@ pub mod import;
 pub mod mission;
 pub mod optimise;
 pub mod paper;
+pub mod sim_rig;
 
 /// The subcommands.
 #[derive(Debug, Subcommand)]
@@ -28,6 +29,9 @@ pub enum Command {
     Mission(mission::Args),
     /// Reproduce the paper end to end from its reconstructed Fig. 3 curve.
     Paper(paper::Args),
+    /// Run the simulated rig (the real firmware core on simulated peripherals) behind a
+    /// pseudo-terminal and print its port path.
+    SimRig(sim_rig::Args),
 }
 
 /// Runs a subcommand.
@@ -40,5 +44,6 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Optimise(a) => optimise::run(a),
         Command::Mission(a) => mission::run(a),
         Command::Paper(a) => paper::run(a),
+        Command::SimRig(a) => sim_rig::run(a),
     }
 }
