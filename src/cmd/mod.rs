@@ -9,6 +9,7 @@ pub mod import;
 pub mod mission;
 pub mod optimise;
 pub mod paper;
+pub mod report;
 pub mod sim_rig;
 
 /// The subcommands.
@@ -29,6 +30,8 @@ pub enum Command {
     Mission(mission::Args),
     /// Reproduce the paper end to end from its reconstructed Fig. 3 curve.
     Paper(paper::Args),
+    /// Draw the figures of a characterisation (Fig. 3-7, SVG and PNG) and an HTML report.
+    Report(report::Args),
     /// Run the simulated rig (the real firmware core on simulated peripherals) behind a
     /// pseudo-terminal and print its port path.
     SimRig(sim_rig::Args),
@@ -44,6 +47,7 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Optimise(a) => optimise::run(a),
         Command::Mission(a) => mission::run(a),
         Command::Paper(a) => paper::run(a),
+        Command::Report(a) => report::run(a),
         Command::SimRig(a) => sim_rig::run(a),
     }
 }

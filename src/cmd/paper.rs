@@ -12,6 +12,9 @@ pub struct Args {
     /// Print machine-readable JSON.
     #[arg(long)]
     json: bool,
+    /// Also draw the paper's figures (Fig. 3-7, SVG and PNG) and report.html into this folder.
+    #[arg(long, value_name = "DIR")]
+    figures: Option<std::path::PathBuf>,
 }
 
 #[derive(serde::Serialize)]
@@ -119,6 +122,14 @@ fn report(r: &Reproduction) -> Report {
 pub fn run(args: Args) -> Result<()> {
     let r = paper::reproduce()?;
     let rep = report(&r);
+    let written = match &args.figures {
+        Some(dir) => reports::paper_figures(&r, dir)?
+            .paths()
+            .into_iter()
+            .map(std::path::Path::to_path_buf)
+            .collect(),
+        None => Vec::new(),
+    };
     if args.json {
         return output::print_json(&rep);
     }
@@ -209,5 +220,8 @@ pub fn run(args: Args) -> Result<()> {
     println!(
         "hoverbench uses the consistent form by default (--eq8 printed reproduces the paper)."
     );
+    for path in written {
+        println!("wrote {}", path.display());
+    }
     Ok(())
 }

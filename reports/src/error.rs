@@ -1,0 +1,69 @@
+//! The crate's error type.
+
+use std::path::PathBuf;
+
+/// Why a figure or report could not be made. Every variant says which figure, file or input.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum ReportError {
+    /// The embedded font could not be registered with the plotting library.
+    #[error("the embedded font {family:?} could not be loaded")]
+    Font {
+        /// Font family name.
+        family: &'static str,
+    },
+    /// Drawing a figure failed.
+    #[error("drawing {figure} as {format}: {message}")]
+    Draw {
+        /// File stem of the figure.
+        figure: &'static str,
+        /// `SVG` or `PNG`.
+        format: &'static str,
+        /// What the plotting library said.
+        message: String,
+    },
+    /// Encoding a PNG failed.
+    #[error("encoding {figure} as PNG: {message}")]
+    Png {
+        /// File stem of the figure.
+        figure: &'static str,
+        /// What the encoder said.
+        message: String,
+    },
+    /// A figure has nothing to draw.
+    #[error("{figure}: {what}")]
+    NoData {
+        /// File stem of the figure.
+        figure: &'static str,
+        /// What is missing.
+        what: String,
+    },
+    /// The estimator refused an input while preparing a figure.
+    #[error("{context}: {source}")]
+    Estimate {
+        /// What was being computed.
+        context: String,
+        /// The estimator's reason.
+        source: estimator::EstimateError,
+    },
+    /// An input table could not be read.
+    #[error(transparent)]
+    Import(#[from] import::ImportError),
+    /// A file or folder could not be written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file or folder.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+}
+
+impl ReportError {
+    pub(crate) fn estimate(
+        context: impl Into<String>,
+    ) -> impl FnOnce(estimator::EstimateError) -> Self {
+        let context = context.into();
+        move |source| Self::Estimate { context, source }
+    }
+}

@@ -1,0 +1,285 @@
+//! Rendering a figure to SVG text or PNG bytes, and the styles the figures share.
+
+use std::path::Path;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+use crate::ReportError;
+use crate::font::{FONT_FAMILY, ensure_registered};
+
+/// What a figure's drawing code returns.
+pub(crate) type DrawResult<DB> =
+    Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
+
+/// A figure that can draw itself on any plotters backend.
+pub(crate) trait Draw {
+    /// File stem, e.g. `fig3-thrust-curve`.
+    fn stem(&self) -> &'static str;
+    /// Size in pixels (SVG user units and PNG pixels alike).
+    fn size_px(&self) -> (u32, u32);
+    /// Draws the whole figure on `root`, which is already filled white.
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<DB>;
+}
+
+fn draw_error<E: std::error::Error + Send + Sync>(
+    figure: &'static str,
+    format: &'static str,
+) -> impl FnOnce(DrawingAreaErrorKind<E>) -> ReportError {
+    move |e| ReportError::Draw {
+        figure,
+        format,
+        message: e.to_string(),
+    }
+}
+
+/// Renders a figure as SVG text.
+pub(crate) fn svg<F: Draw>(figure: &F) -> Result<String, ReportError> {
+    ensure_registered()?;
+    let mut out = String::new();
+    {
+        let root = SVGBackend::with_string(&mut out, figure.size_px()).into_drawing_area();
+        let err = || draw_error(figure.stem(), "SVG");
+        root.fill(&WHITE).map_err(err())?;
+        figure.draw(&root).map_err(err())?;
+        root.present().map_err(err())?;
+    }
+    Ok(out)
+}
+
+/// Renders a figure as an 8-bit RGB PNG.
+pub(crate) fn png<F: Draw>(figure: &F) -> Result<Vec<u8>, ReportError> {
+    ensure_registered()?;
+    let (w, h) = figure.size_px();
+    let mut rgb = vec![0u8; w as usize * h as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area();
+        let err = || draw_error(figure.stem(), "PNG");
+        root.fill(&WHITE).map_err(err())?;
+        figure.draw(&root).map_err(err())?;
+        root.present().map_err(err())?;
+    }
+    let png_error = |e: png::EncodingError| ReportError::Png {
+        figure: figure.stem(),
+        message: e.to_string(),
+    };
+    let mut out = Vec::new();
+    {
+        let mut enc = png::Encoder::new(&mut out, w, h);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        // The "up" filter alone compresses these flat, mostly white images as well as adaptive
+        // filtering does, at a fraction of the time.
+        enc.set_compression(png::Compression::Balanced);
+        enc.set_filter(png::Filter::Up);
+        let mut writer = enc.write_header().map_err(png_error)?;
+        writer.write_image_data(&rgb).map_err(png_error)?;
+        writer.finish().map_err(png_error)?;
+    }
+    Ok(out)
+}
+
+/// Writes bytes to a temporary file beside `path`, then renames it over `path`, so that a failure
+/// never leaves a half-written file.
+pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), ReportError> {
+    let io = |source| ReportError::Io {
+        path: path.to_owned(),
+        source,
+    };
+    let dir = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let name = path
+        .file_name()
+        .map_or_else(|| "figure".to_owned(), |n| n.to_string_lossy().into_owned());
+    let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
+    std::fs::write(&tmp, bytes).map_err(io)?;
+    std::fs::rename(&tmp, path).map_err(io)
+}
+
+/// Colours of the figures (colour-blind-safe, after Okabe and Ito).
+pub(crate) mod colour {
+    use plotters::style::RGBColor;
+
+    /// Fitted curves, first series.
+    pub const BLUE: RGBColor = RGBColor(0, 114, 178);
+    /// Limits and over-limit marks.
+    pub const RED: RGBColor = RGBColor(213, 94, 0);
+    /// Second series.
+    pub const ORANGE: RGBColor = RGBColor(230, 159, 0);
+    /// Third series, attached phases.
+    pub const GREEN: RGBColor = RGBColor(0, 158, 115);
+    /// Fourth series.
+    pub const PURPLE: RGBColor = RGBColor(204, 121, 167);
+    /// Measurements, text.
+    pub const INK: RGBColor = RGBColor(30, 30, 30);
+    /// Grid and secondary marks.
+    pub const GREY: RGBColor = RGBColor(120, 120, 120);
+
+    /// Colour of the `i`-th series.
+    pub fn series(i: usize) -> RGBColor {
+        [BLUE, ORANGE, GREEN, PURPLE, GREY][i % 5]
+    }
+}
+
+/// Font sizes, px.
+pub(crate) mod size {
+    /// Figure title.
+    pub const TITLE: f64 = 26.0;
+    /// Subtitle (parameters under the title).
+    pub const SUBTITLE: f64 = 18.0;
+    /// Axis descriptions.
+    pub const AXIS: f64 = 20.0;
+    /// Tick labels, legend.
+    pub const TICK: f64 = 17.0;
+    /// Annotations in the plot.
+    pub const NOTE: f64 = 17.0;
+}
+
+/// A text style in the embedded font.
+pub(crate) fn text(size: f64) -> TextStyle<'static> {
+    coloured(size, &colour::INK)
+}
+
+/// A text style in the embedded font and a colour.
+pub(crate) fn coloured(size: f64, colour: &RGBColor) -> TextStyle<'static> {
+    let mut style = TextStyle::from((FONT_FAMILY, size).into_font());
+    style.color = colour.to_backend_color();
+    style
+}
+
+/// A text style anchored at the given position.
+pub(crate) fn anchored(size: f64, colour: &RGBColor, h: HPos, v: VPos) -> TextStyle<'static> {
+    coloured(size, colour).pos(Pos::new(h, v))
+}
+
+/// Draws a title and a subtitle (one or more lines) at the top of `root` and returns the area
+/// below them.
+pub(crate) fn titled<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+    subtitle: &str,
+) -> Result<DrawingArea<DB, Shift>, DrawingAreaErrorKind<DB::ErrorType>> {
+    let (w, _) = root.dim_in_pixel();
+    let centre = i32::try_from(w / 2).unwrap_or(0);
+    root.draw(&Text::new(
+        title.to_owned(),
+        (centre, 12),
+        anchored(size::TITLE, &colour::INK, HPos::Center, VPos::Top),
+    ))?;
+    let mut top = 12 + size::TITLE as i32 + 6;
+    for line in subtitle.lines().filter(|l| !l.is_empty()) {
+        root.draw(&Text::new(
+            line.to_owned(),
+            (centre, top),
+            anchored(size::SUBTITLE, &colour::GREY, HPos::Center, VPos::Top),
+        ))?;
+        top += size::SUBTITLE as i32 + 4;
+    }
+    top += 2;
+    Ok(root.margin(top, 0, 0, 0))
+}
+
+/// Legend box style shared by the figures.
+pub(crate) fn legend<'a, 'b, DB, CT>(
+    chart: &'b mut ChartContext<'a, DB, CT>,
+    position: SeriesLabelPosition,
+) -> DrawResult<DB>
+where
+    DB: DrawingBackend + 'a,
+    CT: plotters::coord::CoordTranslate,
+{
+    chart
+        .configure_series_labels()
+        .position(position)
+        .margin(12)
+        .legend_area_size(34)
+        .label_font(text(size::TICK))
+        .background_style(WHITE.mix(0.9))
+        .border_style(colour::GREY)
+        .draw()
+}
+
+/// Formats a number with `digits` decimals, without a negative zero.
+pub(crate) fn num(v: f64, digits: usize) -> String {
+    let s = format!("{v:.digits$}");
+    if s.starts_with('-') && s[1..].chars().all(|c| c == '0' || c == '.') {
+        s[1..].to_owned()
+    } else {
+        s
+    }
+}
+
+/// Linear range with a margin on both sides (and a unit span when the data have none).
+pub(crate) fn padded(lo: f64, hi: f64, fraction: f64) -> (f64, f64) {
+    let span = hi - lo;
+    if span.is_finite() && span > 0.0 {
+        (lo - span * fraction, hi + span * fraction)
+    } else {
+        (lo - 0.5, hi + 0.5)
+    }
+}
+
+/// Tick label formatting for an axis spanning `span`: enough decimals for plotters' finest tick
+/// step (it puts up to about ten ticks on an axis), trailing zeros trimmed.
+pub(crate) fn tick_decimals(span: f64) -> usize {
+    if !(span.is_finite() && span > 0.0) {
+        return 3;
+    }
+    let d = (-(span / 10.0).log10()).ceil() + 1.0;
+    if d <= 0.0 { 0 } else { d.min(8.0) as usize }
+}
+
+/// A tick label: `v` with `decimals` decimals, trailing zeros (and a bare point) trimmed.
+pub(crate) fn tick(v: f64, decimals: usize) -> String {
+    let s = num(v, decimals);
+    if s.contains('.') {
+        s.trim_end_matches('0').trim_end_matches('.').to_owned()
+    } else {
+        s
+    }
+}
+
+/// Horizontal anchor for a label beside a point at `fraction` (0 = left, 1 = right) of the plot
+/// width, so that the label stays inside the plot.
+pub(crate) fn h_anchor(fraction: f64) -> HPos {
+    if fraction > 0.7 {
+        HPos::Right
+    } else if fraction < 0.3 {
+        HPos::Left
+    } else {
+        HPos::Center
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tick_labels_have_the_decimals_the_step_needs() {
+        // plotters steps 0.05 over a 0.5 span: two decimals, trailing zeros trimmed.
+        let d = tick_decimals(0.5);
+        let labels: Vec<String> = [0.0, 0.05, 0.1, 0.15].iter().map(|&v| tick(v, d)).collect();
+        assert_eq!(labels, ["0", "0.05", "0.1", "0.15"]);
+        assert_eq!(tick(250.0, tick_decimals(260.0)), "250");
+        assert_eq!(tick(-0.5, tick_decimals(2.0)), "-0.5");
+        assert_eq!(tick(-0.0, 2), "0");
+    }
+
+    #[test]
+    fn numbers_never_show_a_negative_zero() {
+        assert_eq!(num(-0.0001, 2), "0.00");
+        assert_eq!(num(-0.01, 2), "-0.01");
+        assert_eq!(num(13.826, 2), "13.83");
+    }
+
+    #[test]
+    fn padded_ranges_always_have_a_span() {
+        assert_eq!(padded(0.0, 10.0, 0.1), (-1.0, 11.0));
+        let (lo, hi) = padded(3.0, 3.0, 0.1);
+        assert!(lo < 3.0 && hi > 3.0);
+    }
+}

@@ -1,0 +1,226 @@
+//! The high-level entry: a [`ReportInput`] in, every figure it supports and an HTML report out.
+
+use std::path::{Path, PathBuf};
+
+use estimator::{MissionOptions, Model, Payload, PolyCurve, Segment};
+
+use crate::figure::RenderedFigure;
+use crate::{
+    BatteryMassFigure, CatalogueFigure, Figure, LimitMarker, MeasuredFlight, MeasuredStep,
+    NamedBattery, PayloadFigure, ReportError, ThrustCurveFigure, TimelineFigure, WrittenFigure,
+    html,
+};
+
+/// A rig sweep's measured steps.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Sweep {
+    /// Where they come from (a file name).
+    pub source: String,
+    /// What they are, for the legend: `measured` for a rig sweep.
+    pub label: String,
+    /// The steps.
+    pub steps: Vec<MeasuredStep>,
+}
+
+impl Sweep {
+    /// Reads a hoverbench sweep table: `thrust_g` and `power_w` (or `voltage_v × current_a`) over
+    /// the rows not marked invalid, and `power_std_w` when the table has it.
+    pub fn from_table(table: &import::Table, source: &str) -> Result<Self, ReportError> {
+        let xy = table.xy("thrust_g", &import::YSource::power_default())?;
+        let std = if table.has("power_std_w") {
+            Some(table.column("power_std_w")?)
+        } else {
+            None
+        };
+        let steps =
+            xy.x.iter()
+                .zip(&xy.y)
+                .enumerate()
+                .map(|(i, (&thrust_g, &power_w))| MeasuredStep {
+                    thrust_g,
+                    power_w,
+                    power_std_w: std.as_ref().and_then(|s| s.get(i).copied()),
+                })
+                .collect();
+        Ok(Self {
+            source: source.to_owned(),
+            label: "measured".to_owned(),
+            steps,
+        })
+    }
+}
+
+/// Fig. 6's study: batteries and payload powers.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PayloadStudy {
+    /// One pair of lines per battery.
+    pub batteries: Vec<NamedBattery>,
+    /// One line per payload power, W (the paper: 0 and 5 W).
+    pub payload_powers_w: Vec<f64>,
+}
+
+/// A mission plan to evaluate and draw.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MissionInput {
+    /// The plan as written (for titles and tables).
+    pub plan: String,
+    /// The plan's segments (`estimator::plan::parse_plan`).
+    pub segments: Vec<Segment>,
+    /// The battery flown.
+    pub battery: NamedBattery,
+    /// Eq. (8) form and reserve floor.
+    pub options: MissionOptions,
+}
+
+/// A reproduced number beside a reference (a published or measured value).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Comparison {
+    /// What is compared.
+    pub what: String,
+    /// The value computed here.
+    pub value: f64,
+    /// The reference value.
+    pub reference: f64,
+    /// Unit of both.
+    pub unit: String,
+    /// Where the reference comes from.
+    pub reference_source: String,
+}
+
+/// Everything a report can show. Each figure is drawn when its inputs are present.
+#[derive(Debug, Clone)]
+pub struct ReportInput {
+    /// Report title.
+    pub title: String,
+    /// The model: fitted curve, platform and thrust limit.
+    pub model: Model<PolyCurve>,
+    /// Payload for Fig. 4, Fig. 5 and the mission.
+    pub payload: Payload,
+    /// Measured steps for Fig. 3 (the curve alone is drawn without them).
+    pub sweep: Option<Sweep>,
+    /// Thrust limit marker for Fig. 3.
+    pub thrust_limit: Option<LimitMarker>,
+    /// Energy density for Fig. 4, Wh/kg (no Fig. 4 without it).
+    pub energy_density_wh_per_kg: Option<f64>,
+    /// Packs for Fig. 5 (no Fig. 5 when empty).
+    pub catalogue: Vec<NamedBattery>,
+    /// Batteries and payload powers for Fig. 6.
+    pub payload_study: Option<PayloadStudy>,
+    /// Measured flights for Fig. 6.
+    pub flights: Vec<MeasuredFlight>,
+    /// A mission for the Fig. 7-style timeline.
+    pub mission: Option<MissionInput>,
+    /// Numbers to show beside references.
+    pub comparisons: Vec<Comparison>,
+    /// Where the inputs come from: (key, value) rows for the report's provenance table.
+    pub provenance: Vec<(String, String)>,
+}
+
+/// Files a report wrote.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ReportFiles {
+    /// Each figure's SVG and PNG.
+    pub figures: Vec<WrittenFigure>,
+    /// The self-contained HTML report.
+    pub html: PathBuf,
+}
+
+impl ReportFiles {
+    /// Every file written, figures first (SVG then PNG), the HTML last.
+    pub fn paths(&self) -> Vec<&Path> {
+        let mut out: Vec<&Path> = Vec::with_capacity(self.figures.len() * 2 + 1);
+        for f in &self.figures {
+            out.push(&f.svg);
+            out.push(&f.png);
+        }
+        out.push(&self.html);
+        out
+    }
+}
+
+/// File name of the HTML report.
+pub const HTML_FILE: &str = "report.html";
+
+/// The figures `input` supports, in the paper's order (Fig. 3 to 7).
+pub fn figures(input: &ReportInput) -> Result<Vec<Figure>, ReportError> {
+    let model = &input.model;
+    let mut out = Vec::new();
+    out.push(Figure::from(ThrustCurveFigure {
+        curve: model.curve,
+        measured: input
+            .sweep
+            .as_ref()
+            .map(|s| s.steps.clone())
+            .unwrap_or_default(),
+        thrust_limit: input.thrust_limit.clone(),
+        source: input.sweep.as_ref().map(|s| s.source.clone()),
+        steps_label: input
+            .sweep
+            .as_ref()
+            .map_or_else(|| "measured".to_owned(), |s| s.label.clone()),
+    }));
+    if let Some(e_d) = input.energy_density_wh_per_kg {
+        out.push(BatteryMassFigure::from_model(model, e_d, &input.payload)?.into());
+    }
+    if !input.catalogue.is_empty() {
+        out.push(CatalogueFigure::rank(model, &input.payload, &input.catalogue)?.into());
+    }
+    if let Some(study) = &input.payload_study {
+        if !study.batteries.is_empty() && !study.payload_powers_w.is_empty() {
+            out.push(
+                PayloadFigure::from_model(
+                    model,
+                    &study.batteries,
+                    &study.payload_powers_w,
+                    &input.flights,
+                )?
+                .into(),
+            );
+        }
+    }
+    if let Some(m) = &input.mission {
+        let (summary, outcomes) = model
+            .evaluate_mission_vec(&m.battery.battery, &input.payload, &m.segments, &m.options)
+            .map_err(ReportError::estimate(format!(
+                "mission {:?} with {}",
+                m.plan, m.battery.name
+            )))?;
+        out.push(
+            TimelineFigure::from_mission(
+                &m.battery.name,
+                &m.plan,
+                m.options.eq8,
+                &summary,
+                &outcomes,
+            )
+            .into(),
+        );
+    }
+    Ok(out)
+}
+
+/// Draws every figure `input` supports as SVG and PNG and writes them, with a self-contained
+/// `report.html` (figures inline as SVG, numbers in tables, provenance), into `out_dir`, which is
+/// created if needed. Everything is computed and rendered before the first file is written.
+pub fn write_report(input: &ReportInput, out_dir: &Path) -> Result<ReportFiles, ReportError> {
+    let figures = figures(input)?;
+    let rendered = figures
+        .iter()
+        .map(RenderedFigure::render)
+        .collect::<Result<Vec<_>, _>>()?;
+    let page = html::page(input, &figures, &rendered);
+    std::fs::create_dir_all(out_dir).map_err(|source| ReportError::Io {
+        path: out_dir.to_owned(),
+        source,
+    })?;
+    let written = rendered
+        .iter()
+        .map(|r| r.write(out_dir))
+        .collect::<Result<Vec<_>, _>>()?;
+    let html_path = out_dir.join(HTML_FILE);
+    crate::render::write_atomic(&html_path, page.as_bytes())?;
+    Ok(ReportFiles {
+        figures: written,
+        html: html_path,
+    })
+}

@@ -1,0 +1,212 @@
+//! End-to-end tests of `hoverbench report`: a session folder and a params file in, every figure
+//! as SVG and PNG and a self-contained HTML report out; bad input is one clear message and
+//! exit code 2.
+
+use std::path::{Path, PathBuf};
+use std::process::Output;
+
+use assert_cmd::Command;
+use estimator::file::Provenance;
+
+fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn data(name: &str) -> PathBuf {
+    root().join("tests/data").join(name)
+}
+
+fn report_data(name: &str) -> PathBuf {
+    root().join("reports/tests/data").join(name)
+}
+
+fn hoverbench(args: &[&str]) -> Output {
+    Command::cargo_bin("hoverbench")
+        .unwrap()
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+/// A session folder: `params.toml` fitted from the paper sweep with the 9 V limit sweep, and a
+/// `sweep.csv` with a `power_std_w` column (1 % of the power) so that Fig. 3 has error bars.
+fn session(dir: &Path, input_file: &str) {
+    let (sweep, sweep_bytes) = import::Table::read(&data("paper-sweep.csv")).unwrap();
+    let xy = sweep
+        .xy("thrust_g", &import::YSource::power_default())
+        .unwrap();
+    let fitted = fit::fit_polynomial(&xy.x, &xy.y, 5).unwrap();
+    let (limit_table, limit_bytes) = import::Table::read(&data("paper-limit-9v.csv")).unwrap();
+    let std = limit_table.column("thrust_std_g").unwrap();
+    let limit = fit::thrust_limit(
+        &limit_table.column("throttle").unwrap(),
+        &limit_table.column("thrust_g").unwrap(),
+        &fit::ThrustLimitOptions {
+            thrust_std_g: Some(&std),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let file = fit::export::params_file(
+        &fitted,
+        &fit::export::CurveLabels {
+            x: "thrust_g",
+            y: "power_w",
+            supply_voltage_v: Some(12.5),
+        },
+        4,
+        Some(&fit::export::LimitRecord {
+            limit,
+            supply_voltage_v: 9.0,
+        }),
+        Provenance {
+            input_file: input_file.to_owned(),
+            input_sha256: import::sha256_hex(&sweep_bytes),
+            limit_input_file: Some("paper-limit-9v.csv".to_owned()),
+            limit_input_sha256: Some(import::sha256_hex(&limit_bytes)),
+            created: "2026-01-01T00:00:00Z".to_owned(),
+            tool: "hoverbench test".to_owned(),
+        },
+    );
+    std::fs::create_dir_all(dir).unwrap();
+    std::fs::write(dir.join("params.toml"), file.to_toml_string()).unwrap();
+    let mut csv =
+        String::from("# paper sweep with a 1 % standard deviation\nthrust_g,power_w,power_std_w\n");
+    for (x, y) in xy.x.iter().zip(&xy.y) {
+        csv.push_str(&format!("{x},{y},{}\n", 0.01 * y));
+    }
+    std::fs::write(dir.join("sweep.csv"), csv).unwrap();
+}
+
+fn assert_self_contained(html: &str) {
+    for bad in [
+        "http://", "https://", "file:", "<script", "<link", "<img", "@import", "url(",
+    ] {
+        assert!(
+            !html.contains(bad),
+            "the report refers outside itself: {bad:?}"
+        );
+    }
+}
+
+#[test]
+fn a_session_gives_every_figure_and_a_self_contained_report() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sess = tmp.path().join("session");
+    session(&sess, "sweep.csv");
+    let out = tmp.path().join("out");
+    let cat = report_data("catalogue-example.csv");
+    let flights = report_data("flights-example.csv");
+    let o = hoverbench(&[
+        "report",
+        sess.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--structure-mass",
+        "431g",
+        "--avionics-power",
+        "2.44",
+        "--catalogue",
+        cat.to_str().unwrap(),
+        "--flights",
+        flights.to_str().unwrap(),
+        "--plan",
+        "3x(hover 2m; attach 30m); hover until empty",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8(o.stdout).unwrap();
+    for stem in [
+        "fig3-thrust-curve",
+        "fig4-endurance-vs-battery-mass",
+        "fig5-battery-ranking",
+        "fig6-endurance-vs-payload",
+        "fig7-mission-timeline",
+    ] {
+        for ext in ["svg", "png"] {
+            let p = out.join(format!("{stem}.{ext}"));
+            assert!(p.is_file(), "{} missing", p.display());
+            assert!(
+                stdout.contains(&format!("wrote {}", p.display())),
+                "{stdout}"
+            );
+        }
+    }
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert_self_contained(&html);
+    // The limit sweep's 150 g per rotor, Fig. 3's error bars, the over-limit packs, the measured
+    // flights beside their estimates and the mission end are all in the report.
+    assert!(html.contains("0.600 kg (150.0"), "thrust limit missing");
+    assert!(html.contains("measured (mean ± 1σ)"));
+    assert!(html.contains("over the payload limit (would give"));
+    assert!(html.contains("beyond the measured thrust range"));
+    assert!(html.contains("Measured flights beside the estimates"));
+    assert!(html.contains("Battery-A (TP-2100-3S1P)") || html.contains("TP-2100-3S1P (Battery-A)"));
+    assert!(html.contains("Fig. 7 · Mission timeline"));
+    // Nothing but the report's own files.
+    let mut names: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names.len(), 11, "{names:?}");
+}
+
+#[test]
+fn a_params_file_finds_its_sweep_through_its_provenance() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sess = tmp.path().join("s");
+    // Recorded as written by `hoverbench fit` run inside the folder: relative to the params file.
+    session(&sess, "sweep.csv");
+    let out = tmp.path().join("figs");
+    let params = sess.join("params.toml");
+    let o = hoverbench(&[
+        "report",
+        params.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--structure-mass",
+        "0.431",
+        "--avionics-power",
+        "2.44",
+        "--battery-mass",
+        "144g",
+        "--battery-energy-density",
+        "164",
+        "--json",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let written = v["written"].as_array().unwrap();
+    // Fig. 3, 4 and 6 (no catalogue, no plan): 3 × 2 files and the HTML.
+    assert_eq!(written.len(), 7, "{v}");
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(
+        html.contains("27 measured steps"),
+        "the sweep was not found"
+    );
+    assert_self_contained(&html);
+}
+
+#[test]
+fn a_plan_without_a_battery_is_one_clear_error_and_nothing_is_written() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sess = tmp.path().join("s");
+    session(&sess, "sweep.csv");
+    let out = tmp.path().join("never");
+    let o = hoverbench(&[
+        "report",
+        sess.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--structure-mass",
+        "431g",
+        "--avionics-power",
+        "2.44",
+        "--plan",
+        "hover until empty",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("--plan needs a battery"), "{err}");
+    assert!(!out.exists());
+}
