@@ -1,0 +1,166 @@
+//! The one error type of the crate.
+
+use std::path::PathBuf;
+
+/// Why a flight log, a metadata file or a flight folder could not be read.
+///
+/// Every variant names the file; text formats add the 1-based line (and column where it is
+/// known), binary formats the byte offset of the message, and both the field concerned.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum FlightLogError {
+    /// A file or folder could not be read.
+    #[error("{}: {error}", path.display())]
+    Io {
+        /// The file or folder.
+        path: PathBuf,
+        /// The cause.
+        error: std::io::Error,
+    },
+    /// Malformed CSV (unbalanced quotes, a row with another number of fields, bad UTF-8).
+    #[error("{}, line {line}: {message}", path.display())]
+    Csv {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: u64,
+        /// What is wrong.
+        message: String,
+    },
+    /// A required column is not in the header.
+    #[error("{}: no column {column:?}; the header has: {available}", path.display())]
+    MissingColumn {
+        /// The file.
+        path: PathBuf,
+        /// The column required.
+        column: String,
+        /// The columns present, comma-separated.
+        available: String,
+    },
+    /// The same column twice in a header.
+    #[error("{}, line {line}: column {column:?} appears twice in the header", path.display())]
+    DuplicateColumn {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line of the header.
+        line: u64,
+        /// The repeated column.
+        column: String,
+    },
+    /// A cell that is not what its column holds.
+    #[error("{}, line {line}, column {column:?}: {value:?} is not {expected}", path.display())]
+    BadValue {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: u64,
+        /// The column.
+        column: String,
+        /// The cell's text.
+        value: String,
+        /// What was expected.
+        expected: String,
+    },
+    /// Time that runs backwards, stands still, or is sampled slower than 1 Hz.
+    #[error("{}, {location}, field {field:?}: {message}", path.display())]
+    Time {
+        /// The file.
+        path: PathBuf,
+        /// Where: `line 12` for text logs, `byte 4096` for binary logs.
+        location: String,
+        /// The time field (`time_s`, `battery_status.timestamp`, `BAT.TimeUS`).
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// Too few samples to be a flight.
+    #[error("{}: {samples} sample(s); a flight needs at least 2", path.display())]
+    TooShort {
+        /// The file.
+        path: PathBuf,
+        /// Samples found.
+        samples: usize,
+    },
+    /// A metadata file that is not valid TOML, or has an unknown key or a value of the wrong
+    /// type.
+    #[error("{}, line {line}, column {column}: {message}", path.display())]
+    Toml {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// 1-based column.
+        column: usize,
+        /// What the TOML reader said.
+        message: String,
+    },
+    /// A metadata value out of its range, or two keys that exclude each other.
+    #[error("{}, line {line}, key {key:?}: {message}", path.display())]
+    Meta {
+        /// The file (or a description of the built-in defaults).
+        path: PathBuf,
+        /// 1-based line of the key (0 when not located).
+        line: usize,
+        /// The key.
+        key: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A binary log (ULog, DataFlash) that does not follow its format.
+    #[error("{}, byte {offset}, {field}: {message}", path.display())]
+    Binary {
+        /// The file.
+        path: PathBuf,
+        /// Byte offset of the message (or header) concerned.
+        offset: u64,
+        /// The message or field concerned (`header`, `FMT.Format`, `battery_status.voltage_v`).
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// A log that is well-formed but lacks what a flight needs (no battery voltage).
+    #[error("{}: no {field}: {message}", path.display())]
+    MissingData {
+        /// The file.
+        path: PathBuf,
+        /// The message or field that is missing.
+        field: String,
+        /// Context.
+        message: String,
+    },
+    /// A file that is none of the formats this crate reads.
+    #[error("{}: {message}", path.display())]
+    UnknownFormat {
+        /// The file.
+        path: PathBuf,
+        /// What was seen.
+        message: String,
+    },
+    /// A folder with nothing to read.
+    #[error("{}: no flight logs (*.csv, *.ulg, *.bin, or a Crazyflie Real_path/ folder)", path.display())]
+    NoFlights {
+        /// The folder.
+        path: PathBuf,
+    },
+}
+
+impl FlightLogError {
+    /// The file (or folder) the error is about.
+    pub fn path(&self) -> &std::path::Path {
+        match self {
+            Self::Io { path, .. }
+            | Self::Csv { path, .. }
+            | Self::MissingColumn { path, .. }
+            | Self::DuplicateColumn { path, .. }
+            | Self::BadValue { path, .. }
+            | Self::Time { path, .. }
+            | Self::TooShort { path, .. }
+            | Self::Toml { path, .. }
+            | Self::Meta { path, .. }
+            | Self::Binary { path, .. }
+            | Self::MissingData { path, .. }
+            | Self::UnknownFormat { path, .. }
+            | Self::NoFlights { path } => path,
+        }
+    }
+}

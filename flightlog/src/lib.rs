@@ -1,0 +1,361 @@
+//! Flight logs in: battery voltage, current, altitude and flight phases of real flights, with
+//! what is known about each flight, for comparing measured endurance with the paper's model.
+//!
+//! A flight set is a folder. Each flight is one log:
+//!
+//! - `NAME.csv` with a header: `time_s` and `voltage_v` required; `current_a`, `phase`
+//!   (`ground`, `hover`, `climb`, `descend`, `attached`, `transition`), `altitude_m`, `throttle`
+//!   optional; any rate of at least 1 Hz ([`csvlog`]);
+//! - the Crazyflie dataset's CSV (`x_estimate,y_estimate,z_estimate,battery_voltage` at 100 Hz),
+//!   alone or as the dataset's folder with `Real_path/` and `Planned_trajectories/`, with
+//!   documented platform defaults ([`crazyflie`]);
+//! - a PX4 ULog `.ulg` ([`ulog`]) or an ArduPilot DataFlash `.bin` ([`dataflash`]).
+//!
+//! Metadata ([`FlightMeta`]) comes from a sidecar `NAME.toml` merged over the folder's
+//! `flights.toml` ([`meta`]). A log without phases gets them inferred from its current and
+//! altitude, and says how ([`PhaseSource::Inferred`], [`phase`]). One bad flight never stops
+//! the others: it is listed in [`FlightSet::skipped`] with the reason.
+//!
+//! Main types: [`FlightSet`] (a folder read), [`Flight`] (one log: [`Samples`], [`FlightMeta`],
+//! [`PhaseSource`]), [`Phase`], [`FlightLogError`] (every error names the file and the line or
+//! byte offset and the field). The library never prints and never panics on any input.
+//!
+//! ```
+//! use std::path::Path;
+//! use flightlog::{Flight, LogFormat, Phase, PhaseSource};
+//!
+//! let csv = "time_s,voltage_v,current_a,altitude_m\n\
+//!            0.0,12.6,0.4,0.0\n0.5,12.6,0.4,0.0\n1.0,12.5,9.0,0.5\n1.5,12.4,9.1,1.0\n\
+//!            2.0,12.4,9.0,1.0\n2.5,12.4,9.0,1.0\n3.0,12.3,9.0,1.0\n";
+//! let flight = Flight::parse(csv.as_bytes(), Path::new("hover.csv"), LogFormat::Csv)?;
+//! assert_eq!(flight.name, "hover");
+//! assert_eq!(flight.samples.len(), 7);
+//! assert!((flight.samples.duration_s() - 3.0).abs() < 1e-12);
+//! let phases = flight.samples.phase.as_ref().unwrap();
+//! assert_eq!(phases[0], Phase::Ground);
+//! assert!(matches!(flight.phase_source, PhaseSource::Inferred { .. }));
+//! let flying_s = flight.samples.time_in_s(Phase::is_flying).unwrap();
+//! assert!((flying_s - 2.0).abs() < 1e-12); // from 1.0 s to the last sample at 3.0 s
+//! # Ok::<(), flightlog::FlightLogError>(())
+//! ```
+
+use std::path::{Path, PathBuf};
+
+pub mod crazyflie;
+pub mod csvlog;
+pub mod dataflash;
+mod error;
+pub mod meta;
+pub mod phase;
+mod resample;
+mod set;
+pub mod ulog;
+
+pub use error::FlightLogError;
+pub use meta::{End, FlightMeta};
+pub use phase::{InferenceMethod, InferenceSignals, Phase, PhaseFractions, PhaseSource};
+pub use set::{FlightSet, Skipped};
+
+/// Longest gap allowed between two samples, s: a longer one is a hole in the log.
+pub const MAX_GAP_S: f64 = 5.0;
+
+/// The samples of one flight, all on one time base (every present column has `time_s.len()`
+/// values).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Samples {
+    /// Time, s, strictly increasing: as logged for CSV, from the first battery sample for ULog
+    /// and DataFlash, `row / 100 Hz` for the Crazyflie dataset.
+    pub time_s: Vec<f64>,
+    /// Battery voltage, V.
+    pub voltage_v: Vec<f64>,
+    /// Battery current, A.
+    pub current_a: Option<Vec<f64>>,
+    /// Phase of each sample, logged or inferred (see [`Flight::phase_source`]).
+    pub phase: Option<Vec<Phase>>,
+    /// Altitude (above the log's origin or ground), m.
+    pub altitude_m: Option<Vec<f64>>,
+    /// Throttle as logged (0–1 for DataFlash `CTUN.ThO`).
+    pub throttle: Option<Vec<f64>>,
+}
+
+impl Samples {
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.time_s.len()
+    }
+
+    /// Whether there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.time_s.is_empty()
+    }
+
+    /// Time from the first to the last sample, s.
+    pub fn duration_s(&self) -> f64 {
+        match (self.time_s.first(), self.time_s.last()) {
+            (Some(a), Some(b)) => b - a,
+            _ => 0.0,
+        }
+    }
+
+    /// Electrical power `voltage_v × current_a`, W, when current is logged.
+    pub fn power_w(&self) -> Option<Vec<f64>> {
+        let current = self.current_a.as_ref()?;
+        Some(
+            self.voltage_v
+                .iter()
+                .zip(current)
+                .map(|(v, i)| v * i)
+                .collect(),
+        )
+    }
+
+    /// Time spent in phases matching `which`, s: each sample counts for the interval to the
+    /// next one. `None` without phases.
+    pub fn time_in_s(&self, which: impl Fn(Phase) -> bool) -> Option<f64> {
+        let phases = self.phase.as_ref()?;
+        Some(
+            self.time_s
+                .windows(2)
+                .zip(phases)
+                .filter(|&(_, &p)| which(p))
+                .map(|(w, _)| w[1] - w[0])
+                .sum(),
+        )
+    }
+
+    /// Whether every present column has one value per time.
+    pub fn is_consistent(&self) -> bool {
+        let n = self.time_s.len();
+        self.voltage_v.len() == n
+            && self.current_a.as_ref().is_none_or(|c| c.len() == n)
+            && self.phase.as_ref().is_none_or(|c| c.len() == n)
+            && self.altitude_m.as_ref().is_none_or(|c| c.len() == n)
+            && self.throttle.as_ref().is_none_or(|c| c.len() == n)
+    }
+}
+
+/// The format a log was read as.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LogFormat {
+    /// A CSV with a `time_s`, `voltage_v`, … header.
+    Csv,
+    /// The Crazyflie dataset's CSV (`x_estimate,y_estimate,z_estimate,battery_voltage`).
+    Crazyflie,
+    /// PX4 ULog.
+    Ulog,
+    /// ArduPilot DataFlash.
+    DataFlash,
+}
+
+impl LogFormat {
+    /// The format of a log from its extension, and for CSV its header.
+    pub fn detect(path: &Path, bytes: &[u8]) -> Result<Self, FlightLogError> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        match ext.as_deref() {
+            Some("ulg") => Ok(Self::Ulog),
+            Some("bin") => Ok(Self::DataFlash),
+            Some("csv") if crazyflie::has_header(bytes) => Ok(Self::Crazyflie),
+            Some("csv") => Ok(Self::Csv),
+            _ if bytes.starts_with(&ulog::MAGIC) => Ok(Self::Ulog),
+            _ if bytes.starts_with(&dataflash::MAGIC) => Ok(Self::DataFlash),
+            _ => Err(FlightLogError::UnknownFormat {
+                path: path.to_owned(),
+                message: "not a .csv, .ulg or .bin flight log".to_owned(),
+            }),
+        }
+    }
+}
+
+/// One flight: its samples, what is known about it, and where its phases come from.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Flight {
+    /// The log's file name without extension.
+    pub name: String,
+    /// The log file.
+    pub source: PathBuf,
+    /// The format it was read as.
+    pub format: LogFormat,
+    /// The samples.
+    pub samples: Samples,
+    /// Metadata: platform defaults, then the folder's `flights.toml`, then the sidecar.
+    pub meta: FlightMeta,
+    /// Whether the phases were logged, inferred (and how), or are absent.
+    pub phase_source: PhaseSource,
+    /// Planned waypoints (x, y, z), m, when the log comes with a plan (Crazyflie).
+    pub planned_waypoints_m: Option<Vec<[f64; 3]>>,
+    /// Things a reader should know that did not stop the flight being read (ignored columns,
+    /// a truncated final record, dropped samples).
+    pub warnings: Vec<String>,
+}
+
+impl Flight {
+    /// Reads a log file, its format from the extension (and the CSV header). The metadata is
+    /// the format's platform defaults only; [`FlightSet`] adds sidecars and folder defaults.
+    pub fn read(path: &Path) -> Result<Self, FlightLogError> {
+        let bytes = std::fs::read(path).map_err(|error| FlightLogError::Io {
+            path: path.to_owned(),
+            error,
+        })?;
+        let format = LogFormat::detect(path, &bytes)?;
+        Self::parse(&bytes, path, format)
+    }
+
+    /// Parses a log held in memory; `source` names it (and gives the flight its name).
+    pub fn parse(bytes: &[u8], source: &Path, format: LogFormat) -> Result<Self, FlightLogError> {
+        let decoded = match format {
+            LogFormat::Csv => csvlog::parse(bytes, source)?,
+            LogFormat::Crazyflie => crazyflie::parse(bytes, source)?,
+            LogFormat::Ulog => ulog::parse(bytes, source)?,
+            LogFormat::DataFlash => dataflash::parse(bytes, source)?,
+        };
+        let meta = match format {
+            LogFormat::Crazyflie => crazyflie::platform_defaults(),
+            _ => FlightMeta::default(),
+        };
+        Ok(Self::assemble(source, format, decoded, meta))
+    }
+
+    /// Builds the flight from decoded samples: infers phases when the log has none.
+    fn assemble(source: &Path, format: LogFormat, decoded: Decoded, meta: FlightMeta) -> Self {
+        let Decoded {
+            mut samples,
+            landed,
+            warnings,
+        } = decoded;
+        let phase_source = if samples.phase.is_some() {
+            PhaseSource::Logged
+        } else {
+            match phase::infer(phase::Signals {
+                time_s: &samples.time_s,
+                current_a: samples.current_a.as_deref(),
+                altitude_m: samples.altitude_m.as_deref(),
+                landed: landed.as_deref(),
+            }) {
+                Some((phases, source)) => {
+                    samples.phase = Some(phases);
+                    source
+                }
+                None => PhaseSource::None,
+            }
+        };
+        Self {
+            name: flight_name(source),
+            source: source.to_owned(),
+            format,
+            samples,
+            meta,
+            phase_source,
+            planned_waypoints_m: None,
+            warnings,
+        }
+    }
+}
+
+/// One message of a binary log, reduced to the numeric fields asked for.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Record {
+    /// Byte offset of the message in the file.
+    pub offset: u64,
+    /// The fields' values, in the order asked for (`NaN` for an optional field the message
+    /// type lacks).
+    pub values: Vec<f64>,
+}
+
+/// What a format decoder hands over: samples, an optional land detector, warnings.
+#[derive(Debug, Default)]
+pub(crate) struct Decoded {
+    pub(crate) samples: Samples,
+    pub(crate) landed: Option<Vec<bool>>,
+    pub(crate) warnings: Vec<String>,
+}
+
+/// A log's name: its file name without extension.
+pub(crate) fn flight_name(path: &Path) -> String {
+    path.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| path.display().to_string())
+}
+
+/// Checks that time is strictly increasing, sampled at 1 Hz or faster (median interval) and
+/// without holes longer than [`MAX_GAP_S`]. `locate(i)` says where sample `i` is (`line 12`,
+/// `byte 4096`); `field` names the time field.
+pub(crate) fn check_time(
+    path: &Path,
+    time_s: &[f64],
+    field: &str,
+    locate: impl Fn(usize) -> String,
+) -> Result<(), FlightLogError> {
+    let fail = |i: usize, message: String| FlightLogError::Time {
+        path: path.to_owned(),
+        location: locate(i),
+        field: field.to_owned(),
+        message,
+    };
+    if time_s.len() < 2 {
+        return Err(FlightLogError::TooShort {
+            path: path.to_owned(),
+            samples: time_s.len(),
+        });
+    }
+    let mut intervals = Vec::with_capacity(time_s.len() - 1);
+    for i in 1..time_s.len() {
+        let dt = time_s[i] - time_s[i - 1];
+        if dt.is_nan() || dt <= 0.0 {
+            return Err(fail(
+                i,
+                format!(
+                    "time goes from {} s to {} s: it must increase",
+                    time_s[i - 1],
+                    time_s[i]
+                ),
+            ));
+        }
+        if dt > MAX_GAP_S {
+            return Err(fail(
+                i,
+                format!(
+                    "{dt} s without a sample (from {} s): longer than {MAX_GAP_S} s",
+                    time_s[i - 1]
+                ),
+            ));
+        }
+        intervals.push(dt);
+    }
+    let mid = intervals.len() / 2;
+    let (_, median, _) = intervals.select_nth_unstable_by(mid, f64::total_cmp);
+    if *median > 1.0 {
+        return Err(fail(
+            0,
+            format!(
+                "median sample interval {} s: the rate must be at least 1 Hz",
+                *median
+            ),
+        ));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn time_checks() {
+        let p = Path::new("x.csv");
+        let at = |i: usize| format!("row {i}");
+        assert!(check_time(p, &[0.0, 0.5, 1.0], "time_s", at).is_ok());
+        let e = check_time(p, &[0.0, 0.5, 0.5], "time_s", at).unwrap_err();
+        assert!(e.to_string().contains("row 2"), "{e}");
+        let e = check_time(p, &[0.0, 2.0, 4.0], "time_s", at).unwrap_err();
+        assert!(e.to_string().contains("1 Hz"), "{e}");
+        let e = check_time(p, &[0.0, 0.1, 9.0, 9.1], "time_s", at).unwrap_err();
+        assert!(e.to_string().contains("without a sample"), "{e}");
+        assert!(matches!(
+            check_time(p, &[0.0], "time_s", at),
+            Err(FlightLogError::TooShort { samples: 1, .. })
+        ));
+    }
+}

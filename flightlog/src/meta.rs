@@ -1,0 +1,319 @@
+//! Flight metadata: a sidecar `NAME.toml` merged over a folder's `flights.toml` defaults.
+//!
+//! Both files have the same keys, all optional (see [`FlightMeta`]). Unknown keys, values of the
+//! wrong type and values out of range are errors naming the file, the line and the column or key.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::FlightLogError;
+
+/// How a flight ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum End {
+    /// The flight ran until the minimum-voltage landing: its duration is a measured endurance.
+    Cutoff,
+    /// The flight was landed before the battery was empty.
+    Landed,
+}
+
+/// What is known about a flight beyond its samples: the paper's masses and powers, the battery,
+/// the air, and how the flight ended. Every key is optional; a sidecar's keys override the
+/// folder's defaults key by key (see [`FlightMeta::merged_over`]).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FlightMeta {
+    /// Structure mass without battery and payload (the paper's `m^S`), kg.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub structure_mass_kg: Option<f64>,
+    /// Battery mass (`m^B`), kg.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub battery_mass_kg: Option<f64>,
+    /// Battery specific energy (`e^D`), Wh/kg; excludes [`FlightMeta::battery_energy_wh`] in
+    /// the same file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub battery_energy_density_wh_per_kg: Option<f64>,
+    /// Battery energy, Wh; excludes [`FlightMeta::battery_energy_density_wh_per_kg`] in the
+    /// same file.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub battery_energy_wh: Option<f64>,
+    /// Cells in series.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cells: Option<u32>,
+    /// Payload mass (`m^P`), kg.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub payload_mass_kg: Option<f64>,
+    /// Payload power (`p^P`), W.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub payload_power_w: Option<f64>,
+    /// Avionics power (`p^A`), W.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub avionics_power_w: Option<f64>,
+    /// Which battery pack flew.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub battery_id: Option<String>,
+    /// Charge cycles of that pack before this flight.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub battery_cycles: Option<u32>,
+    /// Ambient temperature, °C.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ambient_temperature_c: Option<f64>,
+    /// Air density, kg/m³.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub air_density_kg_m3: Option<f64>,
+    /// Minimum battery voltage (the landing or cut-off voltage), V.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cutoff_voltage_v: Option<f64>,
+    /// How the flight ended: `cutoff` (a measured endurance) or `landed`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub end: Option<End>,
+}
+
+/// Keys that must be positive, with their accessors, for validation.
+const POSITIVE_KEYS: [&str; 7] = [
+    "structure_mass_kg",
+    "battery_mass_kg",
+    "battery_energy_density_wh_per_kg",
+    "battery_energy_wh",
+    "air_density_kg_m3",
+    "cutoff_voltage_v",
+    "cells",
+];
+
+impl FlightMeta {
+    /// Parses and validates the text of a metadata file; `path` names it in errors.
+    pub fn parse(text: &str, path: &Path) -> Result<Self, FlightLogError> {
+        let meta: Self = toml::from_str(text).map_err(|e| {
+            let (line, column) = e
+                .span()
+                .map_or((1, 1), |span| line_column(text.as_bytes(), span.start));
+            FlightLogError::Toml {
+                path: path.to_owned(),
+                line,
+                column,
+                message: e.message().trim().to_owned(),
+            }
+        })?;
+        meta.validate(path, Some(text))?;
+        Ok(meta)
+    }
+
+    /// Reads and validates a metadata file.
+    pub fn read(path: &Path) -> Result<Self, FlightLogError> {
+        let bytes = std::fs::read(path).map_err(|error| FlightLogError::Io {
+            path: path.to_owned(),
+            error,
+        })?;
+        let text = std::str::from_utf8(&bytes).map_err(|e| {
+            let (line, column) = line_column(&bytes, e.valid_up_to());
+            FlightLogError::Toml {
+                path: path.to_owned(),
+                line,
+                column,
+                message: "not UTF-8 text".to_owned(),
+            }
+        })?;
+        Self::parse(text, path)
+    }
+
+    /// These values, with every key this one leaves unset taken from `defaults`.
+    ///
+    /// The battery energy is one quantity given one of two ways: when `self` sets either
+    /// `battery_energy_wh` or `battery_energy_density_wh_per_kg`, neither is taken from
+    /// `defaults`.
+    pub fn merged_over(&self, defaults: &Self) -> Self {
+        let own_energy =
+            self.battery_energy_wh.is_some() || self.battery_energy_density_wh_per_kg.is_some();
+        let (energy_wh, density) = if own_energy {
+            (
+                self.battery_energy_wh,
+                self.battery_energy_density_wh_per_kg,
+            )
+        } else {
+            (
+                defaults.battery_energy_wh,
+                defaults.battery_energy_density_wh_per_kg,
+            )
+        };
+        Self {
+            structure_mass_kg: self.structure_mass_kg.or(defaults.structure_mass_kg),
+            battery_mass_kg: self.battery_mass_kg.or(defaults.battery_mass_kg),
+            battery_energy_density_wh_per_kg: density,
+            battery_energy_wh: energy_wh,
+            cells: self.cells.or(defaults.cells),
+            payload_mass_kg: self.payload_mass_kg.or(defaults.payload_mass_kg),
+            payload_power_w: self.payload_power_w.or(defaults.payload_power_w),
+            avionics_power_w: self.avionics_power_w.or(defaults.avionics_power_w),
+            battery_id: self
+                .battery_id
+                .clone()
+                .or_else(|| defaults.battery_id.clone()),
+            battery_cycles: self.battery_cycles.or(defaults.battery_cycles),
+            ambient_temperature_c: self
+                .ambient_temperature_c
+                .or(defaults.ambient_temperature_c),
+            air_density_kg_m3: self.air_density_kg_m3.or(defaults.air_density_kg_m3),
+            cutoff_voltage_v: self.cutoff_voltage_v.or(defaults.cutoff_voltage_v),
+            end: self.end.or(defaults.end),
+        }
+    }
+
+    /// Battery energy in Wh: `battery_energy_wh`, else density × battery mass.
+    pub fn battery_energy(&self) -> Option<f64> {
+        self.battery_energy_wh
+            .or_else(|| Some(self.battery_energy_density_wh_per_kg? * self.battery_mass_kg?))
+    }
+
+    /// Battery specific energy in Wh/kg: `battery_energy_density_wh_per_kg`, else energy ÷
+    /// battery mass.
+    pub fn battery_energy_density(&self) -> Option<f64> {
+        self.battery_energy_density_wh_per_kg
+            .or_else(|| Some(self.battery_energy_wh? / self.battery_mass_kg?))
+    }
+
+    /// Take-off mass (structure + battery + payload, payload 0 when unset), kg.
+    pub fn take_off_mass_kg(&self) -> Option<f64> {
+        Some(self.structure_mass_kg? + self.battery_mass_kg? + self.payload_mass_kg.unwrap_or(0.0))
+    }
+
+    /// Checks ranges and exclusive keys. `text` (the file's text) locates the offending line.
+    pub fn validate(&self, path: &Path, text: Option<&str>) -> Result<(), FlightLogError> {
+        let fail = |key: &str, message: String| FlightLogError::Meta {
+            path: path.to_owned(),
+            line: text.map_or(0, |t| key_line(t, key)),
+            key: key.to_owned(),
+            message,
+        };
+        if self.battery_energy_wh.is_some() && self.battery_energy_density_wh_per_kg.is_some() {
+            return Err(fail(
+                "battery_energy_wh",
+                "give battery_energy_wh or battery_energy_density_wh_per_kg, not both".to_owned(),
+            ));
+        }
+        let positive = [
+            self.structure_mass_kg,
+            self.battery_mass_kg,
+            self.battery_energy_density_wh_per_kg,
+            self.battery_energy_wh,
+            self.air_density_kg_m3,
+            self.cutoff_voltage_v,
+            self.cells.map(f64::from),
+        ];
+        for (key, value) in POSITIVE_KEYS.iter().zip(positive) {
+            if let Some(v) = value
+                && !(v.is_finite() && v > 0.0)
+            {
+                return Err(fail(key, format!("{v} must be a positive number")));
+            }
+        }
+        let non_negative = [
+            ("payload_mass_kg", self.payload_mass_kg),
+            ("payload_power_w", self.payload_power_w),
+            ("avionics_power_w", self.avionics_power_w),
+        ];
+        for (key, value) in non_negative {
+            if let Some(v) = value
+                && !(v.is_finite() && v >= 0.0)
+            {
+                return Err(fail(key, format!("{v} must be zero or more")));
+            }
+        }
+        if let Some(t) = self.ambient_temperature_c
+            && !(t.is_finite() && t > -273.15)
+        {
+            return Err(fail(
+                "ambient_temperature_c",
+                format!("{t} is not a temperature in °C"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// 1-based line and column (in characters) of a byte offset.
+pub(crate) fn line_column(bytes: &[u8], offset: usize) -> (usize, usize) {
+    let before = &bytes[..offset.min(bytes.len())];
+    let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
+    let start = before
+        .iter()
+        .rposition(|&b| b == b'\n')
+        .map_or(0, |p| p + 1);
+    let column = String::from_utf8_lossy(&before[start..]).chars().count() + 1;
+    (line, column)
+}
+
+/// 1-based line on which `key` is assigned (`key = …`), or 0.
+fn key_line(text: &str, key: &str) -> usize {
+    text.lines()
+        .position(|l| {
+            let l = l.trim_start();
+            l.strip_prefix(key)
+                .or_else(|| {
+                    l.strip_prefix('"')
+                        .and_then(|r| r.strip_prefix(key))
+                        .and_then(|r| r.strip_prefix('"'))
+                })
+                .is_some_and(|rest| rest.trim_start().starts_with('='))
+        })
+        .map_or(0, |i| i + 1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unknown_key_names_line_and_column() {
+        let text = "structure_mass_kg = 0.4\nbattery_mas_kg = 0.1\n";
+        let err = FlightMeta::parse(text, Path::new("f.toml")).unwrap_err();
+        let FlightLogError::Toml {
+            line,
+            column,
+            message,
+            ..
+        } = &err
+        else {
+            panic!("{err}");
+        };
+        assert_eq!((*line, *column), (2, 1));
+        assert!(message.contains("battery_mas_kg"), "{message}");
+    }
+
+    #[test]
+    fn end_values_and_ranges() {
+        let m = FlightMeta::parse("end = \"cutoff\"\ncells = 3\n", Path::new("a.toml")).unwrap();
+        assert_eq!(m.end, Some(End::Cutoff));
+        assert!(FlightMeta::parse("end = \"crashed\"\n", Path::new("a.toml")).is_err());
+        let err = FlightMeta::parse("\nbattery_mass_kg = -1.0\n", Path::new("a.toml")).unwrap_err();
+        assert!(matches!(err, FlightLogError::Meta { line: 2, .. }), "{err}");
+        let err = FlightMeta::parse(
+            "battery_energy_wh = 20.0\nbattery_energy_density_wh_per_kg = 150.0\n",
+            Path::new("a.toml"),
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("not both"), "{err}");
+    }
+
+    #[test]
+    fn merge_takes_battery_energy_as_one_quantity() {
+        let defaults = FlightMeta {
+            battery_energy_density_wh_per_kg: Some(150.0),
+            battery_mass_kg: Some(0.1),
+            cells: Some(3),
+            ..FlightMeta::default()
+        };
+        let own = FlightMeta {
+            battery_energy_wh: Some(20.0),
+            ..FlightMeta::default()
+        };
+        let m = own.merged_over(&defaults);
+        assert_eq!(m.battery_energy_wh, Some(20.0));
+        assert_eq!(m.battery_energy_density_wh_per_kg, None);
+        assert_eq!(m.cells, Some(3));
+        assert_eq!(m.battery_energy(), Some(20.0));
+        let inherited = FlightMeta::default().merged_over(&defaults);
+        assert!((inherited.battery_energy().unwrap() - 15.0).abs() < 1e-12);
+    }
+}

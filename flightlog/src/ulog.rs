@@ -1,0 +1,626 @@
+//! PX4 ULog (`.ulg`): a small, bounds-checked reader of the documented format
+//! (<https://docs.px4.io/main/en/dev_log/ulog_file_format.html>), and what a flight takes from it.
+//!
+//! File: a 16-byte header (`ULog` magic `55 4C 6F 67 01 12 35`, a version byte, the start
+//! timestamp as `u64` µs), then messages `{u16 msg_size, u8 msg_type, payload[msg_size]}`, all
+//! little-endian. This reader uses the flag bits (`B`: refuses unknown incompatible flags,
+//! follows appended-data offsets), formats (`F`: `name:type field;type[n] field;…`, nested types
+//! included), subscriptions (`A`/`R`) and data (`D`); every other message type is skipped, as
+//! the specification asks. A truncated final message ends the log with a warning.
+//!
+//! A flight takes (instance 0 of each topic):
+//!
+//! - `battery_status`: `timestamp`, `voltage_v` (samples with a voltage at or below 0, PX4's
+//!   "not measured", are dropped and counted), `current_a` (absent when every value is negative,
+//!   PX4's "unknown");
+//! - `vehicle_local_position`: `z` (NED, so altitude = −z; samples with `z_valid` false are
+//!   dropped), interpolated onto the battery's times;
+//! - `vehicle_land_detected`: `landed`, held onto the battery's times, as the ground test of the
+//!   phase inference.
+//!
+//! Time is the battery's `timestamp` from its first sample, s.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use crate::{Decoded, FlightLogError, Record, Samples};
+
+/// The first seven bytes of every ULog file.
+pub const MAGIC: [u8; 7] = [0x55, 0x4C, 0x6F, 0x67, 0x01, 0x12, 0x35];
+/// Header length, bytes.
+pub const HEADER_LEN: usize = 16;
+/// Deepest nesting of message formats followed.
+const MAX_NESTING: usize = 16;
+
+/// A scalar ULog field type.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Scalar {
+    /// `int8_t`.
+    I8,
+    /// `uint8_t`.
+    U8,
+    /// `int16_t`.
+    I16,
+    /// `uint16_t`.
+    U16,
+    /// `int32_t`.
+    I32,
+    /// `uint32_t`.
+    U32,
+    /// `int64_t`.
+    I64,
+    /// `uint64_t`.
+    U64,
+    /// `float`.
+    F32,
+    /// `double`.
+    F64,
+    /// `bool`.
+    Bool,
+    /// `char`.
+    Char,
+}
+
+impl Scalar {
+    /// The scalar type of a ULog type name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Some(match name {
+            "int8_t" => Self::I8,
+            "uint8_t" => Self::U8,
+            "int16_t" => Self::I16,
+            "uint16_t" => Self::U16,
+            "int32_t" => Self::I32,
+            "uint32_t" => Self::U32,
+            "int64_t" => Self::I64,
+            "uint64_t" => Self::U64,
+            "float" => Self::F32,
+            "double" => Self::F64,
+            "bool" => Self::Bool,
+            "char" => Self::Char,
+            _ => return None,
+        })
+    }
+
+    /// Size in bytes.
+    pub fn size(self) -> usize {
+        match self {
+            Self::I8 | Self::U8 | Self::Bool | Self::Char => 1,
+            Self::I16 | Self::U16 => 2,
+            Self::I32 | Self::U32 | Self::F32 => 4,
+            Self::I64 | Self::U64 | Self::F64 => 8,
+        }
+    }
+
+    /// Decodes a little-endian value as `f64` (`None` when `bytes` is too short).
+    pub fn decode(self, bytes: &[u8]) -> Option<f64> {
+        fn arr<const N: usize>(b: &[u8]) -> Option<[u8; N]> {
+            b.get(..N)?.try_into().ok()
+        }
+        Some(match self {
+            Self::I8 => f64::from(i8::from_le_bytes(arr(bytes)?)),
+            Self::U8 | Self::Char => f64::from(*bytes.first()?),
+            Self::Bool => f64::from(u8::from(*bytes.first()? != 0)),
+            Self::I16 => f64::from(i16::from_le_bytes(arr(bytes)?)),
+            Self::U16 => f64::from(u16::from_le_bytes(arr(bytes)?)),
+            Self::I32 => f64::from(i32::from_le_bytes(arr(bytes)?)),
+            Self::U32 => f64::from(u32::from_le_bytes(arr(bytes)?)),
+            Self::I64 => i64::from_le_bytes(arr(bytes)?) as f64,
+            Self::U64 => u64::from_le_bytes(arr(bytes)?) as f64,
+            Self::F32 => f64::from(f32::from_le_bytes(arr(bytes)?)),
+            Self::F64 => f64::from_le_bytes(arr(bytes)?),
+        })
+    }
+}
+
+/// One field of a message format, as written: type name, array length, field name.
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct FieldDef {
+    type_name: String,
+    count: usize,
+    name: String,
+}
+
+/// A data message: where it is and its payload after the `msg_id`.
+#[derive(Debug, Clone, Copy)]
+struct DataMessage<'a> {
+    offset: u64,
+    data: &'a [u8],
+}
+
+/// A ULog file's formats, subscriptions and data, borrowed from its bytes.
+#[derive(Debug)]
+pub struct ULog<'a> {
+    /// File format version (header byte 7).
+    pub version: u8,
+    /// Start of logging, µs (header).
+    pub start_timestamp_us: u64,
+    formats: HashMap<String, Vec<FieldDef>>,
+    /// Data per (topic, multi_id), in file order.
+    data: HashMap<(String, u8), Vec<DataMessage<'a>>>,
+    /// What was skipped or odd (truncated tail, data without subscription).
+    pub warnings: Vec<String>,
+}
+
+/// A `u16` at `pos` (little-endian), if in range.
+fn u16_at(b: &[u8], pos: usize) -> Option<u16> {
+    Some(u16::from_le_bytes(
+        b.get(pos..pos.checked_add(2)?)?.try_into().ok()?,
+    ))
+}
+
+/// A `u64` at `pos` (little-endian), if in range.
+fn u64_at(b: &[u8], pos: usize) -> Option<u64> {
+    Some(u64::from_le_bytes(
+        b.get(pos..pos.checked_add(8)?)?.try_into().ok()?,
+    ))
+}
+
+/// Parses a format's text `name:type field;…` into its name and fields.
+fn parse_format(text: &str) -> Result<(String, Vec<FieldDef>), String> {
+    let (name, body) = text
+        .split_once(':')
+        .ok_or_else(|| format!("format {text:?} has no ':'"))?;
+    let mut fields = Vec::new();
+    for def in body.split(';') {
+        let def = def.trim_matches(|c: char| c.is_whitespace() || c == '\0');
+        if def.is_empty() {
+            continue;
+        }
+        let (ty, field) = def
+            .rsplit_once(' ')
+            .ok_or_else(|| format!("field {def:?} of {name:?} is not \"type name\""))?;
+        let ty = ty.trim();
+        let (type_name, count) = match ty.split_once('[') {
+            Some((base, rest)) => {
+                let n = rest
+                    .strip_suffix(']')
+                    .and_then(|n| n.parse::<usize>().ok())
+                    .ok_or_else(|| format!("field {def:?} of {name:?}: bad array length"))?;
+                (base.to_owned(), n)
+            }
+            None => (ty.to_owned(), 1),
+        };
+        fields.push(FieldDef {
+            type_name,
+            count,
+            name: field.trim().to_owned(),
+        });
+    }
+    Ok((name.trim().to_owned(), fields))
+}
+
+impl<'a> ULog<'a> {
+    /// Parses a ULog file held in memory; `path` names it in errors.
+    pub fn parse(bytes: &'a [u8], path: &Path) -> Result<Self, FlightLogError> {
+        let fail = |offset: usize, field: &str, message: String| FlightLogError::Binary {
+            path: path.to_owned(),
+            offset: offset as u64,
+            field: field.to_owned(),
+            message,
+        };
+        if bytes.len() < HEADER_LEN || !bytes.starts_with(&MAGIC) {
+            return Err(fail(
+                0,
+                "header",
+                "not a ULog file (no ULog magic in a 16-byte header)".to_owned(),
+            ));
+        }
+        let mut log = ULog {
+            version: bytes[7],
+            start_timestamp_us: u64_at(bytes, 8).unwrap_or(0),
+            formats: HashMap::new(),
+            data: HashMap::new(),
+            warnings: Vec::new(),
+        };
+        let mut subscriptions: HashMap<u16, (String, u8)> = HashMap::new();
+        let mut boundaries: Vec<usize> = Vec::new();
+        let mut orphans = 0usize;
+        let mut pos = HEADER_LEN;
+        while pos < bytes.len() {
+            if let Some(&b) = boundaries.first()
+                && pos >= b
+            {
+                boundaries.remove(0);
+                continue;
+            }
+            let (Some(size), Some(&kind)) = (u16_at(bytes, pos), bytes.get(pos + 2)) else {
+                log.warnings.push(format!(
+                    "byte {pos}: truncated message header at the end; ignored"
+                ));
+                break;
+            };
+            let end = pos + 3 + usize::from(size);
+            if let Some(&b) = boundaries.first()
+                && end > b
+            {
+                // A message cut by the start of appended data: continue there.
+                pos = b;
+                boundaries.remove(0);
+                continue;
+            }
+            let Some(payload) = bytes.get(pos + 3..end) else {
+                log.warnings.push(format!(
+                    "byte {pos}: final message ({size} bytes) truncated at the end; ignored"
+                ));
+                break;
+            };
+            match kind {
+                b'B' => {
+                    let compat_len = 8;
+                    let incompat = payload.get(compat_len..compat_len + 8).ok_or_else(|| {
+                        fail(pos, "flag bits", "message shorter than 40 bytes".to_owned())
+                    })?;
+                    if incompat[0] & !1 != 0 || incompat[1..].iter().any(|&b| b != 0) {
+                        return Err(fail(
+                            pos,
+                            "flag bits",
+                            "unknown incompatible flags set: this file needs a newer reader"
+                                .to_owned(),
+                        ));
+                    }
+                    if incompat[0] & 1 != 0 {
+                        for k in 0..3 {
+                            if let Some(off) = u64_at(payload, 16 + 8 * k)
+                                && off > 0
+                                && let Ok(off) = usize::try_from(off)
+                                && off > pos
+                            {
+                                boundaries.push(off);
+                            }
+                        }
+                        boundaries.sort_unstable();
+                    }
+                }
+                b'F' => {
+                    let text = std::str::from_utf8(payload).map_err(|_| {
+                        fail(pos, "format", "format definition is not UTF-8".to_owned())
+                    })?;
+                    let (name, fields) = parse_format(text).map_err(|m| fail(pos, "format", m))?;
+                    log.formats.insert(name, fields);
+                }
+                b'A' => {
+                    let (Some(&multi), Some(id)) = (payload.first(), u16_at(payload, 1)) else {
+                        return Err(fail(
+                            pos,
+                            "subscription",
+                            "message shorter than 3 bytes".to_owned(),
+                        ));
+                    };
+                    let name = String::from_utf8_lossy(&payload[3..])
+                        .trim_end_matches('\0')
+                        .to_owned();
+                    subscriptions.insert(id, (name, multi));
+                }
+                b'R' => {
+                    if let Some(id) = u16_at(payload, 0) {
+                        subscriptions.remove(&id);
+                    }
+                }
+                b'D' => {
+                    let Some(id) = u16_at(payload, 0) else {
+                        return Err(fail(pos, "data", "message shorter than 2 bytes".to_owned()));
+                    };
+                    match subscriptions.get(&id) {
+                        Some(key) => log.data.entry(key.clone()).or_default().push(DataMessage {
+                            offset: pos as u64,
+                            data: &payload[2..],
+                        }),
+                        None => orphans += 1,
+                    }
+                }
+                _ => {}
+            }
+            pos = end;
+        }
+        if orphans > 0 {
+            log.warnings.push(format!(
+                "{orphans} data message(s) without a subscription ignored"
+            ));
+        }
+        Ok(log)
+    }
+
+    /// Names of the topics with data, sorted.
+    pub fn topics(&self) -> Vec<&str> {
+        let mut t: Vec<&str> = self.data.keys().map(|(n, _)| n.as_str()).collect();
+        t.sort_unstable();
+        t.dedup();
+        t
+    }
+
+    /// Size in bytes of a type (scalar or nested format); `memo` keeps the sizes of nested
+    /// formats already computed, so that deep or wide nesting costs one visit per format.
+    fn type_size(
+        &self,
+        type_name: &str,
+        depth: usize,
+        memo: &mut HashMap<String, usize>,
+    ) -> Result<usize, String> {
+        if let Some(s) = Scalar::from_name(type_name) {
+            return Ok(s.size());
+        }
+        if let Some(&s) = memo.get(type_name) {
+            return Ok(s);
+        }
+        if depth >= MAX_NESTING {
+            return Err(format!(
+                "formats nested deeper than {MAX_NESTING} at {type_name:?}"
+            ));
+        }
+        let fields = self
+            .formats
+            .get(type_name)
+            .ok_or_else(|| format!("no format for type {type_name:?}"))?;
+        let mut total = 0usize;
+        for f in fields {
+            total = self
+                .type_size(&f.type_name, depth + 1, memo)?
+                .checked_mul(f.count)
+                .and_then(|s| s.checked_add(total))
+                .ok_or_else(|| format!("format {type_name:?} is too large"))?;
+        }
+        memo.insert(type_name.to_owned(), total);
+        Ok(total)
+    }
+
+    /// Offset and scalar type of a top-level scalar field of a topic.
+    fn field(&self, topic: &str, field: &str) -> Result<Option<(usize, Scalar)>, String> {
+        let fields = self
+            .formats
+            .get(topic)
+            .ok_or_else(|| format!("no format for {topic:?}"))?;
+        let mut memo = HashMap::new();
+        let mut offset = 0usize;
+        for f in fields {
+            if f.name == field {
+                return Ok(Scalar::from_name(&f.type_name).map(|s| (offset, s)));
+            }
+            offset = self
+                .type_size(&f.type_name, 0, &mut memo)?
+                .checked_mul(f.count)
+                .and_then(|s| s.checked_add(offset))
+                .ok_or_else(|| format!("format {topic:?} is too large"))?;
+        }
+        Ok(None)
+    }
+
+    /// The lowest instance (multi_id) of a topic that has data.
+    fn first_instance(&self, topic: &str) -> Option<u8> {
+        self.data
+            .keys()
+            .filter(|(n, _)| n == topic)
+            .map(|&(_, m)| m)
+            .min()
+    }
+
+    /// Values of top-level scalar fields of a topic's first instance, one row per message:
+    /// `(byte offset, values)`. `Ok(None)` when the topic has no data; a missing field is
+    /// `NaN` in every row when `required` is false, else an error.
+    pub fn columns(
+        &self,
+        topic: &str,
+        fields: &[(&str, bool)],
+        path: &Path,
+    ) -> Result<Option<Vec<Record>>, FlightLogError> {
+        let Some(multi) = self.first_instance(topic) else {
+            return Ok(None);
+        };
+        let messages = &self.data[&(topic.to_owned(), multi)];
+        let first_offset = messages.first().map_or(0, |m| m.offset);
+        let fail = |offset: u64, field: &str, message: String| FlightLogError::Binary {
+            path: path.to_owned(),
+            offset,
+            field: format!("{topic}.{field}"),
+            message,
+        };
+        let mut layout = Vec::with_capacity(fields.len());
+        for &(name, required) in fields {
+            let found = self
+                .field(topic, name)
+                .map_err(|m| fail(first_offset, name, m))?;
+            if found.is_none() && required {
+                return Err(fail(
+                    first_offset,
+                    name,
+                    "the topic's format has no such scalar field".to_owned(),
+                ));
+            }
+            layout.push(found);
+        }
+        let mut rows = Vec::with_capacity(messages.len());
+        for m in messages {
+            let mut values = Vec::with_capacity(fields.len());
+            for (k, slot) in layout.iter().enumerate() {
+                let v = match slot {
+                    None => f64::NAN,
+                    Some((off, ty)) => {
+                        m.data
+                            .get(*off..)
+                            .and_then(|b| ty.decode(b))
+                            .ok_or_else(|| {
+                                fail(
+                                    m.offset,
+                                    fields[k].0,
+                                    format!(
+                                        "message has {} data bytes; the field needs {}",
+                                        m.data.len(),
+                                        off + ty.size()
+                                    ),
+                                )
+                            })?
+                    }
+                };
+                values.push(v);
+            }
+            rows.push(Record {
+                offset: m.offset,
+                values,
+            });
+        }
+        Ok(Some(rows))
+    }
+}
+
+/// Parses a `.ulg` into a flight's samples.
+pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError> {
+    let log = ULog::parse(bytes, path)?;
+    let mut warnings = log.warnings.clone();
+    let battery = log
+        .columns(
+            "battery_status",
+            &[
+                ("timestamp", true),
+                ("voltage_v", true),
+                ("current_a", false),
+            ],
+            path,
+        )?
+        .ok_or_else(|| FlightLogError::MissingData {
+            path: path.to_owned(),
+            field: "battery_status".to_owned(),
+            message: format!(
+                "the log has no battery_status data (topics: {})",
+                log.topics().join(", ")
+            ),
+        })?;
+    let mut offsets = Vec::new();
+    let mut stamps = Vec::new();
+    let mut voltage = Vec::new();
+    let mut current = Vec::new();
+    let mut dropped = 0usize;
+    for Record {
+        offset,
+        values: row,
+    } in &battery
+    {
+        let (ts, v, i) = (row[0], row[1], row[2]);
+        if !(v.is_finite() && v > 0.0) {
+            dropped += 1;
+            continue;
+        }
+        offsets.push(*offset);
+        stamps.push(ts);
+        voltage.push(v);
+        current.push(i);
+    }
+    if dropped > 0 {
+        warnings.push(format!(
+            "{dropped} battery_status sample(s) without a voltage (≤ 0 or not finite) dropped"
+        ));
+    }
+    let t0 = stamps.first().copied().unwrap_or(0.0);
+    let time_s: Vec<f64> = stamps.iter().map(|&t| (t - t0) / 1e6).collect();
+    crate::check_time(path, &time_s, "battery_status.timestamp", |i| {
+        format!("byte {}", offsets.get(i).copied().unwrap_or(0))
+    })?;
+    let current_a = if current.iter().any(|&c| c.is_finite() && c >= 0.0) {
+        Some(
+            current
+                .iter()
+                .map(|&c| if c.is_finite() { c } else { 0.0 })
+                .collect(),
+        )
+    } else {
+        None
+    };
+
+    let altitude_m = match log.columns(
+        "vehicle_local_position",
+        &[("timestamp", true), ("z", true), ("z_valid", false)],
+        path,
+    )? {
+        Some(rows) => {
+            let (t, z): (Vec<f64>, Vec<f64>) = rows
+                .iter()
+                .filter(|r| r.values[2] != 0.0 && r.values[1].is_finite())
+                .map(|r| ((r.values[0] - t0) / 1e6, -r.values[1]))
+                .unzip();
+            if t.is_empty() {
+                warnings.push("vehicle_local_position has no valid z".to_owned());
+                None
+            } else {
+                Some(crate::resample::linear(&t, &z, &time_s))
+            }
+        }
+        None => None,
+    };
+    let landed = log
+        .columns(
+            "vehicle_land_detected",
+            &[("timestamp", true), ("landed", true)],
+            path,
+        )?
+        .map(|rows| {
+            let (t, l): (Vec<f64>, Vec<bool>) = rows
+                .iter()
+                .map(|r| ((r.values[0] - t0) / 1e6, r.values[1] != 0.0))
+                .unzip();
+            crate::resample::hold(&t, &l, &time_s)
+        });
+    Ok(Decoded {
+        samples: Samples {
+            time_s,
+            voltage_v: voltage,
+            current_a,
+            phase: None,
+            altitude_m,
+            throttle: None,
+        },
+        landed,
+        warnings,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn format_text() {
+        let (name, fields) =
+            parse_format("battery_status:uint64_t timestamp;float[4] v;uint8_t[3] _padding0;")
+                .unwrap();
+        assert_eq!(name, "battery_status");
+        assert_eq!(fields.len(), 3);
+        assert_eq!(fields[1].count, 4);
+        assert!(parse_format("nocolon").is_err());
+        assert!(parse_format("x:float[a] v;").is_err());
+    }
+
+    #[test]
+    fn wide_and_deep_nesting_is_cheap_and_bounded() {
+        // t0 has 8 fields of t1, t1 of t2, …: 8^15 visits without memoisation.
+        let mut log = ULog {
+            version: 1,
+            start_timestamp_us: 0,
+            formats: HashMap::new(),
+            data: HashMap::new(),
+            warnings: Vec::new(),
+        };
+        for d in 0..15 {
+            let fields = (0..8)
+                .map(|k| format!("t{} f{k};", d + 1))
+                .collect::<String>();
+            let (name, f) = parse_format(&format!("t{d}:{fields}")).unwrap();
+            log.formats.insert(name, f);
+        }
+        let (name, f) = parse_format("t15:uint8_t x;").unwrap();
+        log.formats.insert(name, f);
+        let (name, f) = parse_format("top:t0 a;float b;").unwrap();
+        log.formats.insert(name, f);
+        let size = 8usize.pow(15);
+        assert_eq!(log.field("top", "b").unwrap(), Some((size, Scalar::F32)));
+        // A cycle is an error, not a stack overflow.
+        let (name, f) = parse_format("loop:loop x;").unwrap();
+        log.formats.insert(name, f);
+        let (name, f) = parse_format("top2:loop a;float b;").unwrap();
+        log.formats.insert(name, f);
+        assert!(log.field("top2", "b").is_err());
+    }
+
+    #[test]
+    fn rejects_non_ulog() {
+        let e = ULog::parse(b"hello", Path::new("x.ulg")).unwrap_err();
+        assert!(matches!(e, FlightLogError::Binary { offset: 0, .. }));
+    }
+}

@@ -1,0 +1,362 @@
+//! The prediction model: the paper's power model (rig curve + eqs. 1–9) driving a battery, plus
+//! the library of candidate effects, each a bounded physical extension with one parameter.
+
+use estimator::PowerCurve;
+use serde::Serialize;
+
+use crate::flight::{FlightRecord, Phase};
+use crate::lipo::{current_for_power, mean_ocv_cell_v, ocv_cell_v};
+
+/// Standard gravity, m/s².
+pub const G: f64 = 9.806_65;
+/// Air density the rig curve is taken to be measured at (ISA sea level), kg/m³.
+pub const RIG_AIR_DENSITY_KG_M3: f64 = 1.225;
+/// Nominal pack resistance per cell of the baseline battery, Ω (PX4's default estimate,
+/// `BAT1_R_INTERNAL` auto: 5 mΩ per cell), so that the baseline has a voltage readout at all.
+pub const NOMINAL_CELL_RESISTANCE_OHM: f64 = 0.005;
+/// Range over which hovering close under the ceiling saves power, in rotor radii... expressed
+/// directly in metres for a 200 mm propeller (one radius = 0.1 m): the saving decays as
+/// `exp(−gap / CEILING_DECAY_M)`.
+pub const CEILING_DECAY_M: f64 = 0.15;
+
+/// A candidate effect: a named, bounded extension of the model with one parameter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Effect {
+    /// Extra pack resistance, Ω: voltage sag `I·R`, `I²R` loss, earlier cut-off.
+    InternalResistance,
+    /// Usable energy below nominal: fraction lost.
+    CapacityFade,
+    /// Rate-dependent capacity: Peukert exponent minus one.
+    Peukert,
+    /// In-flight rotor power above static rig power at equal thrust: fraction.
+    ControlOverhead,
+    /// Power while perched differs from avionics + payload: extra watts.
+    AttachedPower,
+    /// Rotor power ∝ ρ^−a: the exponent `a` (momentum theory: 0.5).
+    AirDensity,
+    /// Less rotor power hovering close under the ceiling: fraction saved at zero gap.
+    CeilingEffect,
+    /// Power to climb: `m·g·v_z / η`; the parameter is `1/η` (0 = free climbs).
+    ClimbPower,
+}
+
+impl Effect {
+    /// The whole library.
+    pub const ALL: [Effect; 8] = [
+        Effect::InternalResistance,
+        Effect::CapacityFade,
+        Effect::Peukert,
+        Effect::ControlOverhead,
+        Effect::AttachedPower,
+        Effect::AirDensity,
+        Effect::CeilingEffect,
+        Effect::ClimbPower,
+    ];
+
+    /// Name as in reports and JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            Effect::InternalResistance => "internal_resistance",
+            Effect::CapacityFade => "capacity_fade",
+            Effect::Peukert => "peukert",
+            Effect::ControlOverhead => "control_overhead",
+            Effect::AttachedPower => "attached_power",
+            Effect::AirDensity => "air_density",
+            Effect::CeilingEffect => "ceiling_effect",
+            Effect::ClimbPower => "climb_power",
+        }
+    }
+
+    /// The parameter's name with its unit.
+    pub fn parameter_name(self) -> &'static str {
+        match self {
+            Effect::InternalResistance => "extra_resistance_ohm",
+            Effect::CapacityFade => "fade_fraction",
+            Effect::Peukert => "peukert_exponent_minus_1",
+            Effect::ControlOverhead => "overhead_fraction",
+            Effect::AttachedPower => "extra_attached_power_w",
+            Effect::AirDensity => "density_exponent",
+            Effect::CeilingEffect => "saving_fraction_at_contact",
+            Effect::ClimbPower => "inverse_climb_efficiency",
+        }
+    }
+
+    /// Physically plausible bounds of the parameter; the value that switches the effect off
+    /// lies inside.
+    pub fn bounds(self) -> (f64, f64) {
+        match self {
+            Effect::InternalResistance => (-0.01, 0.5),
+            Effect::CapacityFade => (-0.1, 0.5),
+            Effect::Peukert => (0.0, 0.3),
+            Effect::ControlOverhead => (-0.2, 0.6),
+            Effect::AttachedPower => (-5.0, 30.0),
+            Effect::AirDensity => (0.0, 1.5),
+            Effect::CeilingEffect => (0.0, 0.6),
+            Effect::ClimbPower => (0.0, 5.0),
+        }
+    }
+
+    /// The parameter value of the baseline (effect off).
+    pub fn neutral(self) -> f64 {
+        0.0
+    }
+
+    /// Whether a set of flights can reveal the effect at all (the data it needs exist).
+    pub fn observable(self, flights: &[&FlightRecord]) -> bool {
+        let any = |f: &dyn Fn(&FlightRecord) -> bool| flights.iter().any(|fl| f(fl));
+        match self {
+            Effect::InternalResistance
+            | Effect::CapacityFade
+            | Effect::ControlOverhead
+            | Effect::Peukert => !flights.is_empty(),
+            Effect::AttachedPower => any(&|f| f.phase.contains(&Phase::Attached)),
+            Effect::AirDensity => {
+                // Needs densities that differ from the rig's: otherwise it is control_overhead.
+                flights.iter().any(|f| {
+                    f.info
+                        .air_density_kg_m3
+                        .is_some_and(|r| (r - RIG_AIR_DENSITY_KG_M3).abs() > 0.02)
+                })
+            }
+            Effect::CeilingEffect => {
+                any(&|f| f.altitude_m.is_some() && ceiling_height_m(f).is_some())
+            }
+            Effect::ClimbPower => {
+                any(&|f| f.altitude_m.is_some() && f.phase.contains(&Phase::Climb))
+            }
+        }
+    }
+}
+
+/// The ceiling height of a flight: from its metadata, else the altitude while attached.
+pub fn ceiling_height_m(f: &FlightRecord) -> Option<f64> {
+    if let Some(h) = f.info.ceiling_height_m {
+        return Some(h);
+    }
+    let z = f.altitude_m.as_ref()?;
+    f.phase
+        .iter()
+        .zip(z)
+        .filter(|(p, _)| **p == Phase::Attached)
+        .map(|(_, z)| *z)
+        .fold(None, |m: Option<f64>, z| Some(m.map_or(z, |m| m.max(z))))
+}
+
+/// Parameter values of the effects switched on (absent = neutral).
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct EffectParams {
+    /// `(effect, value)` pairs.
+    pub values: Vec<(Effect, f64)>,
+}
+
+impl EffectParams {
+    /// The baseline: every effect off.
+    pub fn baseline() -> Self {
+        Self::default()
+    }
+
+    /// The value of `e` (neutral when off).
+    pub fn get(&self, e: Effect) -> f64 {
+        self.values
+            .iter()
+            .find(|(x, _)| *x == e)
+            .map_or(e.neutral(), |(_, v)| *v)
+    }
+
+    /// Sets `e` to `v`.
+    pub fn set(&mut self, e: Effect, v: f64) {
+        match self.values.iter_mut().find(|(x, _)| *x == e) {
+            Some(slot) => slot.1 = v,
+            None => self.values.push((e, v)),
+        }
+    }
+}
+
+/// What the model predicts for one flight, on the flight's own (possibly thinned) time base.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Prediction {
+    /// Sample indices of the flight the prediction is evaluated at.
+    pub index: Vec<usize>,
+    /// Predicted battery voltage at those samples, V (NaN after the predicted cut-off).
+    pub voltage_v: Vec<f64>,
+    /// Predicted battery current, A.
+    pub current_a: Vec<f64>,
+    /// Predicted battery power, W.
+    pub power_w: Vec<f64>,
+    /// Predicted state of charge (0..1).
+    pub soc: Vec<f64>,
+    /// Predicted endurance: time of the cut-off, s from the start of the log (the last logged
+    /// phase is continued past the end of the log to find it).
+    pub endurance_s: f64,
+}
+
+/// The model: a rig curve for rotor power, the rotor count, and effect parameters.
+#[derive(Debug, Clone, Copy)]
+pub struct Model<'a, C> {
+    /// Per-rotor thrust → electrical power (the rig characterisation).
+    pub curve: &'a C,
+    /// Rotors sharing the take-off mass.
+    pub rotor_count: u8,
+}
+
+impl<C: PowerCurve> Model<'_, C> {
+    /// Rotor power hovering the flight's take-off mass at the rig (eq. 4's `p_M`), W. Thrusts
+    /// beyond the curve's range are clamped to its end (the rig could not measure more).
+    pub fn hover_rotor_power_w(&self, f: &FlightRecord) -> f64 {
+        let n = f64::from(self.rotor_count.max(1));
+        let (lo, hi) = self.curve.valid_range_g();
+        let per_rotor = (f.info.total_mass_kg() * 1000.0 / n).clamp(lo, hi);
+        self.curve.power_w(per_rotor).unwrap_or(f64::NAN) * n
+    }
+
+    /// Battery power the model draws at sample `i` of `f`, W.
+    fn power_at(
+        &self,
+        f: &FlightRecord,
+        p: &EffectParams,
+        i: usize,
+        rotor_w: f64,
+        vz: Option<&[f64]>,
+        ceiling: Option<f64>,
+    ) -> f64 {
+        let idle = f.info.idle_power_w();
+        match f.phase[i] {
+            Phase::Ground => f.info.avionics_power_w + f.info.payload_power_w,
+            Phase::Attached => idle + p.get(Effect::AttachedPower),
+            _ => {
+                let mut rotor = rotor_w * (1.0 + p.get(Effect::ControlOverhead));
+                if let Some(rho) = f.info.air_density_kg_m3 {
+                    rotor *= (RIG_AIR_DENSITY_KG_M3 / rho).powf(p.get(Effect::AirDensity));
+                }
+                if let (Some(h), Some(z)) = (ceiling, f.altitude_m.as_ref()) {
+                    let gap = (h - z[i]).max(0.0);
+                    rotor *= 1.0 - p.get(Effect::CeilingEffect) * (-gap / CEILING_DECAY_M).exp();
+                }
+                let mut w = rotor + idle;
+                if let Some(vz) = vz {
+                    let climb = vz[i].max(0.0);
+                    w += f.info.total_mass_kg() * G * climb * p.get(Effect::ClimbPower);
+                }
+                w
+            }
+        }
+    }
+
+    /// Runs the battery through the flight's phases and predicts voltage, current, state of
+    /// charge and the time of the cut-off. `stride` thins the samples evaluated (1 = all).
+    pub fn predict(&self, f: &FlightRecord, p: &EffectParams, stride: usize) -> Prediction {
+        let cells = f64::from(f.info.cells.max(1));
+        let fade = p.get(Effect::CapacityFade);
+        let capacity_ah = f.info.battery_energy_wh / (cells * mean_ocv_cell_v()) * (1.0 - fade);
+        let r = cells * NOMINAL_CELL_RESISTANCE_OHM + p.get(Effect::InternalResistance);
+        let r = r.max(0.0);
+        let peukert = p.get(Effect::Peukert);
+        let one_c_a = capacity_ah.max(1e-9);
+        let rotor_w = self.hover_rotor_power_w(f);
+        let vz = if p.get(Effect::ClimbPower) != 0.0 {
+            f.vertical_speed_m_s(2.0)
+        } else {
+            None
+        };
+        let ceiling = if p.get(Effect::CeilingEffect) != 0.0 {
+            ceiling_height_m(f)
+        } else {
+            None
+        };
+        let stride = stride.max(1);
+        let n = f.time_s.len();
+        let mut soc = 1.0 - f.initial_discharge();
+        let mut out = Prediction {
+            index: Vec::with_capacity(n / stride + 2),
+            voltage_v: Vec::with_capacity(n / stride + 2),
+            current_a: Vec::with_capacity(n / stride + 2),
+            power_w: Vec::with_capacity(n / stride + 2),
+            soc: Vec::with_capacity(n / stride + 2),
+            endurance_s: f64::NAN,
+        };
+        let cutoff = f.info.cutoff_voltage_v;
+        // Electrical state at a power draw and state of charge.
+        let state = |w: f64, soc: f64| -> Option<(f64, f64)> {
+            let e = cells * ocv_cell_v(soc);
+            let i = current_for_power(e, r, w)?;
+            Some((i, e - i * r))
+        };
+        // Charge drawn per second at current i (Peukert: effective current I·(I/1C)^(k−1)).
+        let drain = |i: f64| {
+            let eff = if peukert > 0.0 && i > 0.0 {
+                i * (i / one_c_a).powf(peukert)
+            } else {
+                i
+            };
+            eff / 3600.0 / capacity_ah
+        };
+        let mut k = 0;
+        while k < n {
+            let next = (k + stride).min(n);
+            let w = self.power_at(f, p, k, rotor_w, vz.as_deref(), ceiling);
+            let st = state(w, soc);
+            let (i, v) = match st {
+                Some(s) if s.1 >= cutoff && soc > 0.0 => s,
+                _ => {
+                    out.endurance_s = f.time_s[k] - f.time_s[0];
+                    break;
+                }
+            };
+            out.index.push(k);
+            out.voltage_v.push(v);
+            out.current_a.push(i);
+            out.power_w.push(w);
+            out.soc.push(soc);
+            let dt = if next < n {
+                f.time_s[next] - f.time_s[k]
+            } else {
+                0.0
+            };
+            // Midpoint step: the charge over [k, next) at the power of sample k.
+            let mid = soc - 0.5 * drain(i) * dt;
+            let i_mid = state(w, mid).map_or(i, |s| s.0);
+            soc -= drain(i_mid) * dt;
+            k = next;
+        }
+        if out.endurance_s.is_nan() {
+            // The log ended first: continue its last phase until the cut-off.
+            let last = n.saturating_sub(1);
+            let w = self.power_at(f, p, last, rotor_w, vz.as_deref(), ceiling);
+            let mut t = f.time_s[last] - f.time_s[0];
+            let dt = 1.0;
+            let limit = t + 48.0 * 3600.0;
+            loop {
+                match state(w, soc) {
+                    Some((i, v)) if v >= cutoff && soc > 0.0 && t < limit => {
+                        soc -= drain(i) * dt;
+                        t += dt;
+                    }
+                    _ => break,
+                }
+            }
+            out.endurance_s = t;
+        }
+        out
+    }
+}
+
+impl FlightRecord {
+    /// Fraction of the pack already used when the log starts, from the resting voltage of the
+    /// first samples before the rotors start (0 when the log starts airborne or full).
+    pub fn initial_discharge(&self) -> f64 {
+        let cells = f64::from(self.info.cells.max(1));
+        let rest: Vec<f64> = self
+            .phase
+            .iter()
+            .zip(&self.voltage_v)
+            .take_while(|(p, _)| !p.is_airborne())
+            .map(|(_, v)| *v)
+            .collect();
+        if rest.is_empty() {
+            return 0.0;
+        }
+        let v = rest.iter().sum::<f64>() / rest.len() as f64 / cells;
+        1.0 - crate::lipo::soc_for_ocv(v)
+    }
+}
