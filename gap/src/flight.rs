@@ -2,54 +2,12 @@
 
 use serde::Serialize;
 
-/// What the robot was doing.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Phase {
-    /// On the ground, motors off (avionics only).
-    Ground,
-    /// Hovering.
-    Hover,
-    /// Climbing.
-    Climb,
-    /// Descending.
-    Descend,
-    /// Attached to the ceiling, motors off.
-    Attached,
-    /// Taking off, attaching, detaching, landing.
-    Transition,
-}
+pub use flightlog::Phase;
 
-impl Phase {
-    /// All phases, in report order.
-    pub const ALL: [Phase; 6] = [
-        Phase::Ground,
-        Phase::Hover,
-        Phase::Climb,
-        Phase::Descend,
-        Phase::Attached,
-        Phase::Transition,
-    ];
-
-    /// True when the rotors carry the robot.
-    pub fn is_airborne(self) -> bool {
-        matches!(
-            self,
-            Phase::Hover | Phase::Climb | Phase::Descend | Phase::Transition
-        )
-    }
-
-    /// The phase's name as in logs.
-    pub fn name(self) -> &'static str {
-        match self {
-            Phase::Ground => "ground",
-            Phase::Hover => "hover",
-            Phase::Climb => "climb",
-            Phase::Descend => "descend",
-            Phase::Attached => "attached",
-            Phase::Transition => "transition",
-        }
-    }
+/// Whether the rotors carry the robot in a phase (everything but ground and attached;
+/// transitions such as take-off and detaching count as flying).
+pub fn rotors_on(phase: Phase) -> bool {
+    !matches!(phase, Phase::Ground | Phase::Attached)
 }
 
 /// What a flight carried and how it ended (the metadata of a flight log).

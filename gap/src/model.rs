@@ -192,13 +192,21 @@ pub struct Prediction {
 }
 
 /// The model: a rig curve for rotor power, the rotor count, and effect parameters.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug)]
 pub struct Model<'a, C> {
     /// Per-rotor thrust → electrical power (the rig characterisation).
     pub curve: &'a C,
     /// Rotors sharing the take-off mass.
     pub rotor_count: u8,
 }
+
+impl<C> Clone for Model<'_, C> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<C> Copy for Model<'_, C> {}
 
 impl<C: PowerCurve> Model<'_, C> {
     /// Rotor power hovering the flight's take-off mass at the rig (eq. 4's `p_M`), W. Thrusts
@@ -266,7 +274,7 @@ impl<C: PowerCurve> Model<'_, C> {
         };
         let stride = stride.max(1);
         let n = f.time_s.len();
-        let mut soc = 1.0 - f.initial_discharge();
+        let mut soc = 1.0 - f.initial_discharge(r);
         let mut out = Prediction {
             index: Vec::with_capacity(n / stride + 2),
             voltage_v: Vec::with_capacity(n / stride + 2),
@@ -342,21 +350,23 @@ impl<C: PowerCurve> Model<'_, C> {
 }
 
 impl FlightRecord {
-    /// Fraction of the pack already used when the log starts, from the resting voltage of the
-    /// first samples before the rotors start (0 when the log starts airborne or full).
-    pub fn initial_discharge(&self) -> f64 {
+    /// Fraction of the pack already used when the log starts, from the voltage of the first
+    /// samples before the rotors start, corrected for the sag of the avionics' current through
+    /// the pack resistance `resistance_ohm` (0 when the log starts airborne).
+    pub fn initial_discharge(&self, resistance_ohm: f64) -> f64 {
         let cells = f64::from(self.info.cells.max(1));
         let rest: Vec<f64> = self
             .phase
             .iter()
             .zip(&self.voltage_v)
-            .take_while(|(p, _)| !p.is_airborne())
+            .take_while(|(p, _)| !crate::flight::rotors_on(**p))
             .map(|(_, v)| *v)
             .collect();
         if rest.is_empty() {
             return 0.0;
         }
-        let v = rest.iter().sum::<f64>() / rest.len() as f64 / cells;
-        1.0 - crate::lipo::soc_for_ocv(v)
+        let v = rest.iter().sum::<f64>() / rest.len() as f64;
+        let i = self.info.idle_power_w() / v.max(1e-3);
+        1.0 - crate::lipo::soc_for_ocv((v + i * resistance_ohm) / cells)
     }
 }

@@ -141,8 +141,10 @@ impl Robot {
             propulsion,
             max_thrust_table_g,
             rotor_count: 4,
-            cell_resistance_ohm: crate::model::NOMINAL_CELL_RESISTANCE_OHM,
-            rc_resistance_ohm: 0.004,
+            // Series and RC-pair resistance add up to the nominal DC resistance the model assumes;
+            // the RC pair's 20 s relaxation after every load step is what the model leaves out.
+            cell_resistance_ohm: 0.6 * crate::model::NOMINAL_CELL_RESISTANCE_OHM,
+            rc_resistance_ohm: 0.4 * crate::model::NOMINAL_CELL_RESISTANCE_OHM,
             rc_tau_s: 20.0,
             control_noise: (0.03, 2.0),
             sensor_noise: (0.01, 0.05, 0.01),
@@ -170,6 +172,24 @@ impl Robot {
             }
         }
         Some(self.propulsion.steady_state(hi, supply).power_w())
+    }
+
+    /// A rig sweep of one rotor at `volts`: thrust every `step_g` from `step_g` up to the
+    /// highest thrust, and the electrical power at each, W (what `hoverbench characterise`
+    /// measures, without the sensor noise).
+    pub fn rig_sweep(&self, volts: f64, step_g: f64) -> (Vec<f64>, Vec<f64>) {
+        let max = self.max_thrust_g(volts);
+        let mut thrust = Vec::new();
+        let mut power = Vec::new();
+        let mut t = step_g;
+        while t <= max {
+            if let Some(p) = self.rotor_power_w(t, volts) {
+                thrust.push(t);
+                power.push(p);
+            }
+            t += step_g;
+        }
+        (thrust, power)
     }
 
     /// Highest thrust one rotor gives at `volts` (interpolated in a table), g.
@@ -281,7 +301,7 @@ pub fn simulate(
                 break;
             }
             // Power demand.
-            let airborne = phase.is_airborne();
+            let airborne = crate::flight::rotors_on(phase);
             ctrl = a * ctrl + (1.0 - a * a).sqrt() * ctrl_sigma * normal(&mut rng);
             let w = if airborne {
                 let mut rotor = base_rotor_w * (1.0 + lib(Effect::ControlOverhead)) * rho_factor;

@@ -5,12 +5,15 @@ use clap::Subcommand;
 pub mod estimate;
 pub mod export;
 pub mod fit;
+pub mod gap;
+pub mod gap_eval;
 pub mod import;
 pub mod mission;
 pub mod optimise;
 pub mod paper;
 pub mod report;
 pub mod sim_rig;
+pub mod simulate_flights;
 
 /// The subcommands.
 #[derive(Debug, Subcommand)]
@@ -28,6 +31,12 @@ pub enum Command {
     Optimise(optimise::Args),
     /// Evaluate a mission of hover and ceiling-attached segments (eqs. 7-9, Table I).
     Mission(mission::Args),
+    /// Diagnose the sim-to-real gap of a flight set: where, which effect, how far it shrinks.
+    Gap(gap::Args),
+    /// The gap diagnosis' blind study on simulated flights.
+    GapEval(gap_eval::Args),
+    /// Generate flight sets from the physical truth simulator (truth in a separate file).
+    SimulateFlights(simulate_flights::Args),
     /// Reproduce the paper end to end from its reconstructed Fig. 3 curve.
     Paper(paper::Args),
     /// Draw the figures of a characterisation (Fig. 3-7, SVG and PNG) and an HTML report.
@@ -46,6 +55,9 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Export(a) => export::run(a),
         Command::Optimise(a) => optimise::run(a),
         Command::Mission(a) => mission::run(a),
+        Command::Gap(a) => gap::run(a),
+        Command::GapEval(a) => gap_eval::run(a),
+        Command::SimulateFlights(a) => simulate_flights::run(a),
         Command::Paper(a) => paper::run(a),
         Command::Report(a) => report::run(a),
         Command::SimRig(a) => sim_rig::run(a),

@@ -1,0 +1,340 @@
+//! From flight logs (the `flightlog` crate) to the diagnosis, with its two baselines: a rig
+//! characterisation, or — for a robot nobody put on a bench — a hover power estimated from the
+//! training flights.
+
+use estimator::{EstimateError, PowerCurve};
+use flightlog::{End, Flight, PhaseSource};
+use serde::Serialize;
+
+use crate::GapError;
+use crate::diagnose::{DiagnoseOptions, Diagnosis, diagnose};
+use crate::flight::{FlightInfo, FlightRecord, Phase};
+use crate::model::{EffectParams, Model};
+
+/// Cut-off per cell when a log does not say, V (the paper's 3.0 V).
+pub const DEFAULT_CUTOFF_CELL_V: f64 = 3.0;
+
+/// Converts a read log into the diagnosis' form. Masses and powers a log does not give are
+/// left as NaN (only a rig baseline needs them; [`require_masses`] checks).
+pub fn record_from_log(f: &Flight) -> Result<FlightRecord, GapError> {
+    let m = &f.meta;
+    let missing = |what: &str| GapError::Metadata {
+        flight: f.name.clone(),
+        missing: what.to_owned(),
+    };
+    let cells = m.cells.ok_or_else(|| missing("cells"))?;
+    let cells = u8::try_from(cells).map_err(|_| missing("cells (1 to 255)"))?;
+    let battery_energy_wh = m.battery_energy().ok_or_else(|| {
+        missing("battery_energy_wh (or battery_mass_kg and battery_energy_density_wh_per_kg)")
+    })?;
+    let n = f.samples.time_s.len();
+    let phase = match (&f.samples.phase, &f.phase_source) {
+        (Some(p), _) => p.clone(),
+        (None, PhaseSource::None | PhaseSource::Logged | PhaseSource::Inferred { .. }) => {
+            vec![Phase::Hover; n]
+        }
+    };
+    let nan = f64::NAN;
+    Ok(FlightRecord {
+        name: f.name.clone(),
+        time_s: f.samples.time_s.clone(),
+        voltage_v: f.samples.voltage_v.clone(),
+        current_a: f.samples.current_a.clone(),
+        phase,
+        altitude_m: f.samples.altitude_m.clone(),
+        info: FlightInfo {
+            structure_mass_kg: m.structure_mass_kg.unwrap_or(nan),
+            battery_mass_kg: m.battery_mass_kg.unwrap_or(nan),
+            battery_energy_wh,
+            cells,
+            payload_mass_kg: m.payload_mass_kg.unwrap_or(0.0),
+            payload_power_w: m.payload_power_w.unwrap_or(0.0),
+            avionics_power_w: m.avionics_power_w.unwrap_or(0.0),
+            battery_id: m.battery_id.clone(),
+            battery_cycles: m.battery_cycles,
+            ambient_temperature_c: m.ambient_temperature_c,
+            air_density_kg_m3: m.air_density_kg_m3,
+            cutoff_voltage_v: m
+                .cutoff_voltage_v
+                .unwrap_or(f64::from(cells) * DEFAULT_CUTOFF_CELL_V),
+            ended_at_cutoff: m.end == Some(End::Cutoff),
+            ceiling_height_m: None,
+        },
+    })
+}
+
+/// Checks that a flight gives the masses a rig baseline needs.
+pub fn require_masses(f: &FlightRecord) -> Result<(), GapError> {
+    for (what, v) in [
+        ("structure_mass_kg", f.info.structure_mass_kg),
+        ("battery_mass_kg", f.info.battery_mass_kg),
+    ] {
+        if !v.is_finite() {
+            return Err(GapError::Metadata {
+                flight: f.name.clone(),
+                missing: format!("{what} (needed to read the rig curve at the take-off mass)"),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The baseline of a robot whose hover power was estimated from flights instead of measured on
+/// a rig: momentum theory's `P = k·T^1.5` scaled to the flights' mean take-off mass, or the same
+/// power for every flight when the masses are unknown. Evaluated with one "rotor" carrying the
+/// whole take-off mass.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ConstantPower {
+    /// Hover power of all rotors at `reference_mass_kg`, W.
+    pub hover_power_w: f64,
+    /// Take-off mass the power refers to, kg (NaN: masses unknown, power taken as constant).
+    pub reference_mass_kg: f64,
+}
+
+impl PowerCurve for ConstantPower {
+    fn power_w(&self, thrust_g: f64) -> Result<f64, EstimateError> {
+        let ratio = thrust_g / 1000.0 / self.reference_mass_kg;
+        Ok(if ratio.is_finite() && ratio > 0.0 {
+            self.hover_power_w * ratio.powf(1.5)
+        } else {
+            self.hover_power_w
+        })
+    }
+
+    fn valid_range_g(&self) -> (f64, f64) {
+        (0.0, f64::INFINITY)
+    }
+}
+
+/// Estimates the rotors' hover power from training flights: the mean measured hover power
+/// (battery power less idle power) when current is logged; otherwise the power that makes the
+/// baseline model follow the voltage trajectories best.
+pub fn estimate_hover_power(train: &[&FlightRecord], opts: &DiagnoseOptions) -> ConstantPower {
+    let masses: Vec<f64> = train.iter().map(|f| f.info.total_mass_kg()).collect();
+    let reference_mass_kg = if masses.iter().all(|m| m.is_finite() && *m > 0.0) {
+        masses.iter().sum::<f64>() / masses.len() as f64
+    } else {
+        f64::NAN
+    };
+    let at_reference = |p: f64, m: f64| {
+        let r = reference_mass_kg / m;
+        if r.is_finite() { p * r.powf(1.5) } else { p }
+    };
+    let measured: Vec<f64> = train
+        .iter()
+        .filter_map(|f| {
+            let c = f.current_a.as_ref()?;
+            let p: Vec<f64> = f
+                .phase
+                .iter()
+                .enumerate()
+                .filter(|(_, p)| **p == Phase::Hover)
+                .map(|(i, _)| f.voltage_v[i] * c[i] - f.info.idle_power_w())
+                .collect();
+            (!p.is_empty()).then(|| {
+                at_reference(
+                    p.iter().sum::<f64>() / p.len() as f64,
+                    f.info.total_mass_kg(),
+                )
+            })
+        })
+        .collect();
+    // Without current, the voltage's *slope* while flying says how fast the pack drains; its
+    // level also carries the sag through the pack resistance, which is part of the gap, not of
+    // the baseline. So each flight's mean residual is taken out before scoring a hover power.
+    let chi2 = |w: f64| -> f64 {
+        let curve = ConstantPower {
+            hover_power_w: w,
+            reference_mass_kg,
+        };
+        let model = Model {
+            curve: &curve,
+            rotor_count: 1,
+        };
+        train
+            .iter()
+            .map(|f| {
+                let stride = (f.time_s.len() / opts.points_per_flight.max(1)).max(1);
+                let pred = model.predict(f, &EffectParams::baseline(), stride);
+                let r: Vec<f64> = pred
+                    .index
+                    .iter()
+                    .zip(&pred.voltage_v)
+                    .filter(|(i, _)| crate::flight::rotors_on(f.phase[**i]))
+                    .map(|(i, v)| f.voltage_v[*i] - v)
+                    .collect();
+                // A model that empties the pack before the log ends misses samples: count them
+                // at the cut-off voltage.
+                let missed = pred
+                    .index
+                    .last()
+                    .map_or(f.time_s.len(), |l| f.time_s.len() - 1 - l)
+                    / stride;
+                let all: Vec<f64> = r
+                    .iter()
+                    .copied()
+                    .chain(std::iter::repeat_n(
+                        f.voltage_v[f.voltage_v.len() - 1] - f.info.cutoff_voltage_v,
+                        missed,
+                    ))
+                    .collect();
+                if all.is_empty() {
+                    return 0.0;
+                }
+                let m = all.iter().sum::<f64>() / all.len() as f64;
+                all.iter().map(|x| (x - m).powi(2)).sum::<f64>() / all.len() as f64
+                    + if missed > 0 { m * m } else { 0.0 }
+            })
+            .sum()
+    };
+    if !measured.is_empty() {
+        return ConstantPower {
+            hover_power_w: measured.iter().sum::<f64>() / measured.len() as f64,
+            reference_mass_kg,
+        };
+    }
+    let (mut a, mut b) = {
+        // Scan decades for a bracket: per-cell energy and flight lengths vary a lot.
+        let cand: Vec<f64> = (0..40).map(|k| 0.1 * 1.3f64.powi(k)).collect();
+        let best = cand
+            .iter()
+            .copied()
+            .min_by(|x, y| chi2(*x).total_cmp(&chi2(*y)))
+            .unwrap_or(1.0);
+        (best / 1.3, best * 1.3)
+    };
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    let mut c = b - g * (b - a);
+    let mut d = a + g * (b - a);
+    let (mut fc, mut fd) = (chi2(c), chi2(d));
+    for _ in 0..40 {
+        if fc < fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - g * (b - a);
+            fc = chi2(c);
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + g * (b - a);
+            fd = chi2(d);
+        }
+    }
+    ConstantPower {
+        hover_power_w: 0.5 * (a + b),
+        reference_mass_kg,
+    }
+}
+
+/// Where the baseline's rotor power comes from.
+#[derive(Debug, Clone, Copy)]
+pub enum Baseline<'a, C> {
+    /// A rig characterisation (curve and rotor count).
+    Rig(&'a C, u8),
+    /// Estimated from the training flights.
+    FromTraining,
+}
+
+/// The held-out rule used when none is given: every third flight in name order (the 3rd, 6th,
+/// 9th …), at least one, and at least two flights left to train on.
+pub fn default_split(names: &[String]) -> Vec<bool> {
+    let n = names.len();
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| natural_cmp(&names[a], &names[b]));
+    let mut held = vec![false; n];
+    for (rank, &i) in order.iter().enumerate() {
+        held[i] = rank % 3 == 2;
+    }
+    if n >= 3 && !held.iter().any(|h| *h) {
+        held[order[n - 1]] = true;
+    }
+    held
+}
+
+/// Compares names with embedded numbers naturally ("2" before "10").
+pub fn natural_cmp(a: &str, b: &str) -> std::cmp::Ordering {
+    let key = |s: &str| -> Vec<(String, u64)> {
+        let mut out = Vec::new();
+        let mut text = String::new();
+        let mut num = String::new();
+        for ch in s.chars() {
+            if ch.is_ascii_digit() {
+                num.push(ch);
+            } else {
+                if !num.is_empty() {
+                    out.push((std::mem::take(&mut text), num.parse().unwrap_or(u64::MAX)));
+                    num.clear();
+                }
+                text.push(ch);
+            }
+        }
+        out.push((text, num.parse().unwrap_or(0)));
+        out
+    };
+    key(a).cmp(&key(b))
+}
+
+/// The diagnosis of a flight set with the baseline it used.
+#[derive(Debug, Clone, Serialize)]
+pub struct GapReport {
+    /// `rig curve` or `hover power estimated from the training flights`.
+    pub baseline_source: String,
+    /// The estimated hover power (all rotors), W, when estimated.
+    pub estimated_hover_power_w: Option<f64>,
+    /// The diagnosis.
+    pub diagnosis: Diagnosis,
+}
+
+/// Runs the diagnosis with either baseline.
+pub fn run<C: PowerCurve>(
+    baseline: Baseline<'_, C>,
+    train: &[&FlightRecord],
+    heldout: &[&FlightRecord],
+    opts: &DiagnoseOptions,
+) -> Result<GapReport, GapError> {
+    if train.is_empty() {
+        return Err(GapError::NoFlights("training"));
+    }
+    if heldout.is_empty() {
+        return Err(GapError::NoFlights("held-out"));
+    }
+    match baseline {
+        Baseline::Rig(curve, rotor_count) => {
+            for f in train.iter().chain(heldout) {
+                require_masses(f)?;
+            }
+            let d = diagnose(Model { curve, rotor_count }, train, heldout, opts);
+            Ok(GapReport {
+                baseline_source: "rig curve through the paper's model (eqs. 1-9)".into(),
+                estimated_hover_power_w: None,
+                diagnosis: d,
+            })
+        }
+        Baseline::FromTraining => {
+            let curve = estimate_hover_power(train, opts);
+            let d = diagnose(
+                Model {
+                    curve: &curve,
+                    rotor_count: 1,
+                },
+                train,
+                heldout,
+                opts,
+            );
+            Ok(GapReport {
+                baseline_source: if curve.reference_mass_kg.is_finite() {
+                    format!(
+                        "hover power estimated from the training flights ({:.2} W at {:.3} kg, scaled as mass^1.5)",
+                        curve.hover_power_w, curve.reference_mass_kg
+                    )
+                } else {
+                    "hover power estimated from the training flights (the same for every flight: masses unknown)".into()
+                },
+                estimated_hover_power_w: Some(curve.hover_power_w),
+                diagnosis: d,
+            })
+        }
+    }
+}
