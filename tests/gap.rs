@@ -101,3 +101,13 @@ fn crazyflie_voltage_gap_is_mostly_pack_resistance() {
     // 30 of the 90 flights are held out by the default rule.
     assert_eq!(v["split"]["heldout"].as_array().unwrap().len(), 30);
 }
+
+#[test]
+fn table_i_summary_says_how_much_the_printed_eq8_accounts_for() {
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/table-i.csv");
+    let v = json(&["gap-summary", file.to_str().unwrap(), "--paper", "--json"]);
+    let g = &v[0];
+    assert!((g["printed_min"].as_f64().unwrap() - 103.33).abs() < 0.01);
+    assert!((g["consistent_min"].as_f64().unwrap() - 101.68).abs() < 0.01);
+    assert!((g["eq8_accounts_for_min"].as_f64().unwrap() - 1.65).abs() < 0.02);
+}

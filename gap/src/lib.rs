@@ -45,6 +45,7 @@ pub mod flight;
 pub mod lipo;
 pub mod logs;
 pub mod model;
+pub mod summary;
 pub mod truth;
 pub mod write;
 

@@ -78,6 +78,11 @@ struct ArduArgs {
     /// MOT_SPIN_MAX: PWM fraction where thrust saturates.
     #[arg(long, value_name = "FRACTION", default_value_t = 0.95)]
     spin_max: f64,
+    /// More sweeps at other supply voltages (e.g. the 9.0 V limit sweep): the exponent is then
+    /// fitted through ArduPilot's battery-voltage scaling (MOT_BAT_VOLT_MAX = cells × full
+    /// cell voltage; needs --cells and a voltage column in every sweep).
+    #[arg(long = "also-sweep", value_name = "FILE")]
+    also: Vec<PathBuf>,
 }
 
 #[derive(Debug, clap::Args)]
@@ -194,8 +199,51 @@ pub fn run(args: Args) -> Result<()> {
                 .iter()
                 .map(|&p| ardupilot_actuator(p, spin.spin_min, spin.spin_max))
                 .collect();
-            let expo = fit_thrust_expo(&act, &s.thrust_g)
-                .with_context(|| format!("fitting MOT_THST_EXPO to {}", a.sweep.display()))?;
+            let expo = if ar.also.is_empty() {
+                fit_thrust_expo(&act, &s.thrust_g)
+                    .with_context(|| format!("fitting MOT_THST_EXPO to {}", a.sweep.display()))?
+            } else {
+                let b = s.battery.with_context(|| {
+                    "--also-sweep fits through ArduPilot's voltage scaling: give --cells and --capacity".to_owned()
+                })?;
+                let v_max = f64::from(b.cells) * b.full_cell_v;
+                let mut sweeps = Vec::new();
+                for path in std::iter::once(&a.sweep).chain(&ar.also) {
+                    let log = StandLog::read(path, &a.stand.options())?;
+                    let volts = log.mean_voltage_v().with_context(|| {
+                        format!(
+                            "{}: no voltage column, needed to fit across voltages",
+                            path.display()
+                        )
+                    })?;
+                    let throttle = log
+                        .column(|st| st.throttle)
+                        .with_context(|| format!("{}: no throttle column", path.display()))?;
+                    let command = match Command::guess(&throttle) {
+                        Command::Microseconds { .. } => Command::Microseconds {
+                            min_us: a.pwm_min,
+                            max_us: a.pwm_max,
+                        },
+                        other => other,
+                    };
+                    sweeps.push(autopilot::VoltageSweep {
+                        voltage_v: volts,
+                        actuator: throttle
+                            .iter()
+                            .map(|&t| {
+                                ardupilot_actuator(
+                                    command.normalise(t),
+                                    spin.spin_min,
+                                    spin.spin_max,
+                                )
+                            })
+                            .collect(),
+                        thrust_g: log.thrust_g(),
+                    });
+                }
+                autopilot::fit_expo_with_voltage_scaling(&sweeps, v_max)
+                    .context("fitting MOT_THST_EXPO across the sweeps' voltages")?
+            };
             emit(
                 &ArduPilotParams::new(&s.input(a, expo), spin)?.render(),
                 a.output.as_ref(),

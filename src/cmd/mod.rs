@@ -7,6 +7,7 @@ pub mod export;
 pub mod fit;
 pub mod gap;
 pub mod gap_eval;
+pub mod gap_summary;
 pub mod import;
 pub mod mission;
 pub mod optimise;
@@ -33,6 +34,8 @@ pub enum Command {
     Mission(mission::Args),
     /// Diagnose the sim-to-real gap of a flight set: where, which effect, how far it shrinks.
     Gap(gap::Args),
+    /// The gap on mission summaries (estimated vs measured endurance), e.g. the paper's Table I.
+    GapSummary(gap_summary::Args),
     /// The gap diagnosis' blind study on simulated flights.
     GapEval(gap_eval::Args),
     /// Generate flight sets from the physical truth simulator (truth in a separate file).
@@ -57,6 +60,7 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Mission(a) => mission::run(a),
         Command::Gap(a) => gap::run(a),
         Command::GapEval(a) => gap_eval::run(a),
+        Command::GapSummary(a) => gap_summary::run(a),
         Command::SimulateFlights(a) => simulate_flights::run(a),
         Command::Paper(a) => paper::run(a),
         Command::Report(a) => report::run(a),
