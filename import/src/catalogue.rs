@@ -123,6 +123,23 @@ impl Table {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn catalogues_never_panic(
+            rows in proptest::collection::vec("[A-Za-z ]{0,6},[-0-9.]{0,4},[-0-9.e]{0,6},[-0-9.]{0,5},[-0-9.]{0,4},[-0-9.]{0,4}", 0..6)
+        ) {
+            let text = format!("name,cells,capacity_mah,mass_g,energy_wh,energy_density_wh_per_kg\n{}\n", rows.join("\n"));
+            if let Ok(t) = Table::parse(text.as_bytes(), "fuzz.csv") {
+                if let Ok(packs) = t.catalogue() {
+                    for p in packs {
+                        prop_assert!(p.energy_wh > 0.0 && p.mass_g > 0.0 && p.cells >= 1);
+                    }
+                }
+            }
+        }
+    }
 
     #[test]
     fn energy_from_each_basis() {
