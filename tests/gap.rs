@@ -65,6 +65,25 @@ fn simulated_set_is_diagnosed_from_its_files_without_the_truth() {
             < 0.5 * e["heldout_error_before_pct"].as_f64().unwrap()
     );
     assert!(v["where"]["by_phase"].is_array());
+    // The plots, before and after.
+    let plots = dir.path().join("plots");
+    Command::cargo_bin("hoverbench")
+        .unwrap()
+        .args([
+            "gap",
+            train.to_str().unwrap(),
+            "--holdout",
+            held.to_str().unwrap(),
+            "-o",
+            plots.to_str().unwrap(),
+        ])
+        .assert()
+        .success();
+    for f in ["gap-voltage-over-time", "gap-residual-by-phase"] {
+        for ext in ["svg", "png"] {
+            assert!(plots.join(format!("{f}.{ext}")).exists(), "{f}.{ext}");
+        }
+    }
 }
 
 #[test]

@@ -276,6 +276,56 @@ pub fn natural_cmp(a: &str, b: &str) -> std::cmp::Ordering {
     key(a).cmp(&key(b))
 }
 
+/// One held-out flight's voltage, measured and predicted before and after (for plots).
+#[derive(Debug, Clone, Serialize)]
+pub struct HeldoutSeries {
+    /// Flight name.
+    pub name: String,
+    /// Time, s.
+    pub time_s: Vec<f64>,
+    /// Measured voltage, V.
+    pub measured_v: Vec<f64>,
+    /// Baseline prediction, V (NaN past its cut-off).
+    pub before_v: Vec<f64>,
+    /// Prediction with the selected effects, V (NaN past its cut-off).
+    pub after_v: Vec<f64>,
+}
+
+fn series<C: PowerCurve>(
+    model: Model<'_, C>,
+    d: &Diagnosis,
+    flights: &[&FlightRecord],
+) -> Vec<HeldoutSeries> {
+    let mut after = EffectParams::baseline();
+    for e in &d.effects {
+        after.set(e.effect, e.parameters[0].1);
+    }
+    flights
+        .iter()
+        .map(|f| {
+            let stride = (f.time_s.len() / 400).max(1);
+            let on_grid = |p: &EffectParams| {
+                let pred = model.predict(f, p, stride);
+                let mut v = vec![f64::NAN; f.time_s.len().div_ceil(stride)];
+                for (k, i) in pred.index.iter().enumerate() {
+                    if let Some(slot) = v.get_mut(i / stride) {
+                        *slot = pred.voltage_v[k];
+                    }
+                }
+                v
+            };
+            let idx: Vec<usize> = (0..f.time_s.len()).step_by(stride).collect();
+            HeldoutSeries {
+                name: f.name.clone(),
+                time_s: idx.iter().map(|&i| f.time_s[i]).collect(),
+                measured_v: idx.iter().map(|&i| f.voltage_v[i]).collect(),
+                before_v: on_grid(&EffectParams::baseline()),
+                after_v: on_grid(&after),
+            }
+        })
+        .collect()
+}
+
 /// The diagnosis of a flight set with the baseline it used.
 #[derive(Debug, Clone, Serialize)]
 pub struct GapReport {
@@ -285,6 +335,9 @@ pub struct GapReport {
     pub estimated_hover_power_w: Option<f64>,
     /// The diagnosis.
     pub diagnosis: Diagnosis,
+    /// Held-out flights' voltage, measured and predicted before and after.
+    #[serde(skip)]
+    pub heldout_series: Vec<HeldoutSeries>,
 }
 
 /// Runs the diagnosis with either baseline.
@@ -305,24 +358,23 @@ pub fn run<C: PowerCurve>(
             for f in train.iter().chain(heldout) {
                 require_masses(f)?;
             }
-            let d = diagnose(Model { curve, rotor_count }, train, heldout, opts);
+            let model = Model { curve, rotor_count };
+            let d = diagnose(model, train, heldout, opts);
             Ok(GapReport {
                 baseline_source: "rig curve through the paper's model (eqs. 1-9)".into(),
                 estimated_hover_power_w: None,
+                heldout_series: series(model, &d, heldout),
                 diagnosis: d,
             })
         }
         Baseline::FromTraining => {
             let curve = estimate_hover_power(train, opts);
-            let d = diagnose(
-                Model {
-                    curve: &curve,
-                    rotor_count: 1,
-                },
-                train,
-                heldout,
-                opts,
-            );
+            let model = Model {
+                curve: &curve,
+                rotor_count: 1,
+            };
+            let d = diagnose(model, train, heldout, opts);
+            let heldout_series = series(model, &d, heldout);
             Ok(GapReport {
                 baseline_source: if curve.reference_mass_kg.is_finite() {
                     format!(
@@ -333,6 +385,7 @@ pub fn run<C: PowerCurve>(
                     "hover power estimated from the training flights (the same for every flight: masses unknown)".into()
                 },
                 estimated_hover_power_w: Some(curve.hover_power_w),
+                heldout_series,
                 diagnosis: d,
             })
         }

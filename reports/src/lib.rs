@@ -38,6 +38,7 @@ mod catalogue;
 mod error;
 mod figure;
 mod font;
+pub mod gap;
 mod html;
 mod paper_figures;
 mod payload;

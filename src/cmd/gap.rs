@@ -31,6 +31,9 @@ pub struct Args {
     /// Print machine-readable JSON.
     #[arg(long)]
     json: bool,
+    /// Write plots here: held-out voltage over time and the residual by phase, before and after.
+    #[arg(short, long, value_name = "DIR")]
+    output: Option<PathBuf>,
 }
 
 fn read(paths: &[PathBuf], skipped: &mut Vec<(String, String)>) -> Result<Vec<FlightRecord>> {
@@ -130,6 +133,58 @@ pub fn run(args: Args) -> Result<()> {
         None => run_gap::<ConstantPower>(Baseline::FromTraining, &tr, &he, &opts)?,
     };
     let d = &report.diagnosis;
+    let mut written = Vec::new();
+    if let Some(dir) = &args.output {
+        let verdict = if d.verdict.is_empty() {
+            "no effect (none selected)".to_owned()
+        } else {
+            d.verdict
+                .iter()
+                .map(|e| e.name())
+                .collect::<Vec<_>>()
+                .join(" + ")
+        };
+        let voltage = reports::gap::GapVoltageFigure {
+            verdict: verdict.clone(),
+            flights: report
+                .heldout_series
+                .iter()
+                .map(|s| reports::gap::GapSeries {
+                    name: s.name.clone(),
+                    time_s: s.time_s.clone(),
+                    measured_v: s.measured_v.clone(),
+                    before_v: s.before_v.clone(),
+                    after_v: s.after_v.clone(),
+                })
+                .collect(),
+        };
+        let phase_mean = |res: &[gap::diagnose::FlightResiduals], p: gap::flight::Phase| {
+            let v: Vec<f64> = res
+                .iter()
+                .flat_map(|r| {
+                    r.voltage_by_phase_v
+                        .iter()
+                        .filter(|(q, _)| *q == p)
+                        .map(|(_, v)| *v)
+                })
+                .collect();
+            (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+        };
+        let phases = reports::gap::GapPhaseFigure {
+            verdict,
+            phases: gap::flight::Phase::ALL
+                .into_iter()
+                .filter_map(|p| {
+                    Some((
+                        p.name().to_owned(),
+                        phase_mean(&d.heldout_baseline, p)?,
+                        phase_mean(&d.heldout_after, p)?,
+                    ))
+                })
+                .collect(),
+        };
+        written = reports::gap::write_gap_figures(&voltage, &phases, dir)?;
+    }
     if args.json {
         let effects = d
             .effects
@@ -250,5 +305,8 @@ pub fn run(args: Args) -> Result<()> {
     }
     println!();
     println!("gap after, held-out:  {}", levels(&d.after.1));
+    for w in written {
+        println!("wrote {}", w.display());
+    }
     Ok(())
 }
