@@ -28,6 +28,26 @@ pub fn soc_for_ocv(v: f64) -> f64 {
     (i as f64 + (v - a) / (b - a)) / 20.0
 }
 
+/// Reference temperature of the pack ratings, °C.
+pub const REFERENCE_TEMPERATURE_C: f64 = 25.0;
+
+/// How a LiPo's resistance and usable capacity change with temperature, as factors on their
+/// values at 25 °C: resistance rises about 1.5 % per °C colder, usable capacity falls about
+/// 0.2 % per °C colder (typical of hobby pouch cells near room temperature; warmer than 25 °C is
+/// taken as 25 °C for capacity). Unknown temperature: no change.
+pub fn temperature_factors(ambient_c: Option<f64>) -> (f64, f64) {
+    match ambient_c {
+        Some(t) if t.is_finite() => {
+            let colder = REFERENCE_TEMPERATURE_C - t;
+            (
+                (1.0 + 0.015 * colder).clamp(0.5, 3.0),
+                (1.0 - 0.002 * colder.max(0.0)).clamp(0.5, 1.0),
+            )
+        }
+        _ => (1.0, 1.0),
+    }
+}
+
 /// Mean open-circuit voltage over a full discharge, V per cell: the energy a cell stores is its
 /// charge times this.
 pub fn mean_ocv_cell_v() -> f64 {

@@ -256,8 +256,11 @@ impl<C: PowerCurve> Model<'_, C> {
     pub fn predict(&self, f: &FlightRecord, p: &EffectParams, stride: usize) -> Prediction {
         let cells = f64::from(f.info.cells.max(1));
         let fade = p.get(Effect::CapacityFade);
-        let capacity_ah = f.info.battery_energy_wh / (cells * mean_ocv_cell_v()) * (1.0 - fade);
-        let r = cells * NOMINAL_CELL_RESISTANCE_OHM + p.get(Effect::InternalResistance);
+        // The pack's nominal behaviour with temperature is part of the baseline.
+        let (r_temp, c_temp) = crate::lipo::temperature_factors(f.info.ambient_temperature_c);
+        let capacity_ah =
+            f.info.battery_energy_wh / (cells * mean_ocv_cell_v()) * c_temp * (1.0 - fade);
+        let r = cells * NOMINAL_CELL_RESISTANCE_OHM * r_temp + p.get(Effect::InternalResistance);
         let r = r.max(0.0);
         let peukert = p.get(Effect::Peukert);
         let one_c_a = capacity_ah.max(1e-9);

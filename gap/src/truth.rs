@@ -4,7 +4,8 @@
 //! It is deliberately richer than the diagnosis model, so that a diagnosis cannot succeed by
 //! inverting its own equations: rotor power comes from the `sim` crate's motor–propeller physics
 //! (not from the fitted rig curve), the LiPo has a series resistance *and* an RC pair, each pack's
-//! open-circuit curve and capacity scatter a little, control activity makes the power fluctuate,
+//! open-circuit curve and capacity scatter a little, resistance and capacity follow the ambient
+//! temperature, control activity makes the power fluctuate,
 //! and voltage, current and altitude are logged with sensor noise at 1 Hz. The flight ends at the
 //! 9.0 V landing cut-off (3.0 V per cell) or when the rotors can no longer hold the robot up.
 
@@ -244,12 +245,15 @@ pub fn simulate(
     let ocv = |soc: f64| ocv_cell_v(soc) + scatter.ocv_offset_v + hv;
     let mean_ocv = mean_ocv_cell_v() + scatter.ocv_offset_v;
     // The rated energy is what the pack holds; a high-voltage pack holds more at equal charge.
+    // Resistance and usable capacity follow the ambient temperature.
+    let (r_temp, c_temp) = crate::lipo::temperature_factors(info.ambient_temperature_c);
     let capacity_ah = info.battery_energy_wh / (cells * mean_ocv)
         * scatter.capacity_factor
+        * c_temp
         * (1.0 - lib(Effect::CapacityFade));
-    let r0 = cells * robot.cell_resistance_ohm * scatter.resistance_factor
+    let r0 = cells * robot.cell_resistance_ohm * scatter.resistance_factor * r_temp
         + lib(Effect::InternalResistance);
-    let r1 = cells * robot.rc_resistance_ohm;
+    let r1 = cells * robot.rc_resistance_ohm * r_temp;
     let peukert = lib(Effect::Peukert);
     let n = f64::from(robot.rotor_count);
     let m_t = info.total_mass_kg();
