@@ -81,6 +81,27 @@ pub struct Supply {
     pub resistance_ohm: f64,
 }
 
+/// What the rig's ESC and motor draw from the bus at one instant, as a function of the bus
+/// voltage: `I_bus(V) = d·(d·V − K_e·ω)/R` for duty `d`, back-EMF `K_e·ω` and winding
+/// resistance `R`. An external supply model (see [`crate::world::ExternalBus`]) solves its
+/// output against this.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BusLoad {
+    /// ESC duty cycle (0..1).
+    pub duty: f64,
+    /// Motor back-EMF, V.
+    pub back_emf_v: f64,
+    /// Winding plus ESC resistance, Ω.
+    pub resistance_ohm: f64,
+}
+
+impl BusLoad {
+    /// Bus current drawn at `bus_voltage_v` (negative when regenerating), A.
+    pub fn current_a(&self, bus_voltage_v: f64) -> f64 {
+        self.duty * (self.duty * bus_voltage_v - self.back_emf_v) / self.resistance_ohm
+    }
+}
+
 /// Electrical operating point.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct Electrical {
@@ -131,6 +152,15 @@ impl Propulsion {
             prop,
             esc,
             omega_rad_s: 0.0,
+        }
+    }
+
+    /// What the unit draws from the bus at pulse width `throttle_us` and its present speed.
+    pub fn bus_load(&self, throttle_us: f64) -> BusLoad {
+        BusLoad {
+            duty: self.esc.duty(throttle_us),
+            back_emf_v: self.motor.ke() * self.omega_rad_s,
+            resistance_ohm: self.motor.resistance_ohm,
         }
     }
 

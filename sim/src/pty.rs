@@ -265,6 +265,26 @@ const MAX_LAG_US: u64 = 50_000;
 impl PtyRig {
     /// Starts the rig; returns once the pty exists.
     pub fn spawn(preset: Preset, options: PtyRigOptions) -> io::Result<Self> {
+        Self::spawn_inner(preset, options, None)
+    }
+
+    /// Starts the rig with its bus fed by an external supply model (for instance a simulated
+    /// bench supply served on its own pty, so that the supply's set-point, current limit and
+    /// output switch really act on the rig); see [`crate::world::ExternalBus`].
+    /// [`BenchCommand::SetSupplyVoltage`] is then ignored: the external supply owns the bus.
+    pub fn spawn_with_bus(
+        preset: Preset,
+        options: PtyRigOptions,
+        bus: Box<dyn crate::world::ExternalBus>,
+    ) -> io::Result<Self> {
+        Self::spawn_inner(preset, options, Some(bus))
+    }
+
+    fn spawn_inner(
+        preset: Preset,
+        options: PtyRigOptions,
+        bus: Option<Box<dyn crate::world::ExternalBus>>,
+    ) -> io::Result<Self> {
         let pty = Pty::open()?;
         let path = pty.path().to_path_buf();
         // Fail early (on this thread) if the preset does not bring the board up.
@@ -277,7 +297,7 @@ impl PtyRig {
             let snapshot = snapshot.clone();
             std::thread::Builder::new()
                 .name("sim-rig".into())
-                .spawn(move || serve(pty, preset, options, stop, snapshot, rx))?
+                .spawn(move || serve(pty, preset, options, bus, stop, snapshot, rx))?
         };
         Ok(Self {
             path,
@@ -344,11 +364,16 @@ fn serve(
     pty: Pty,
     preset: Preset,
     options: PtyRigOptions,
+    bus: Option<Box<dyn crate::world::ExternalBus>>,
     stop: Arc<AtomicBool>,
     snapshot: Arc<Mutex<PtyRigSnapshot>>,
     commands: mpsc::Receiver<BenchCommand>,
 ) -> io::Result<()> {
     let mut rig = SimRig::new(&preset, options.seed).map_err(io::Error::other)?;
+    let external = bus.is_some();
+    if let Some(bus) = bus {
+        rig.set_external_bus(bus);
+    }
     if options.record_samples {
         rig.record_samples();
     }
@@ -371,7 +396,8 @@ fn serve(
     while !stop.load(Ordering::Relaxed) {
         while let Ok(c) = commands.try_recv() {
             match c {
-                BenchCommand::SetSupplyVoltage(v) => rig.set_supply_voltage(v),
+                BenchCommand::SetSupplyVoltage(v) if !external => rig.set_supply_voltage(v),
+                BenchCommand::SetSupplyVoltage(_) => {}
                 BenchCommand::PlaceMass(g) => rig.place_mass_g(g),
             }
         }

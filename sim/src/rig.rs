@@ -188,6 +188,12 @@ impl SimRig {
         self.world.borrow_mut().supply.resistance_ohm = ohm;
     }
 
+    /// Connects an external supply (such as a simulated bench supply with a current limit)
+    /// that sets the bus voltage each step; see [`crate::world::ExternalBus`].
+    pub fn set_external_bus(&mut self, bus: Box<dyn crate::world::ExternalBus>) {
+        self.world.borrow_mut().set_external_bus(Some(bus));
+    }
+
     /// Puts a known mass on the load cell (0 to remove it), g.
     pub fn place_mass_g(&mut self, mass_g: f64) {
         self.world.borrow_mut().placed_mass_g = mass_g;

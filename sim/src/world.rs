@@ -2,7 +2,7 @@
 //! clock. The embedded-hal peripherals in [`crate::peripherals`] read it.
 
 use crate::noise::Rng64;
-use crate::physics::{Electrical, Propulsion, Supply};
+use crate::physics::{BusLoad, Electrical, Propulsion, Supply};
 use std::cell::Cell;
 use std::rc::Rc;
 
@@ -76,8 +76,23 @@ pub struct Truth {
     pub electrical: Electrical,
 }
 
+/// A supply outside the rig model (such as a simulated programmable bench supply with a
+/// current limit) that sets the rig's bus voltage. Each physics step the world hands it the
+/// rig's present [`BusLoad`] and takes the bus voltage it answers; the world's own
+/// [`Supply`] then becomes that voltage with no source resistance (the external model owns
+/// the source resistance and the current limit).
+pub trait ExternalBus: Send {
+    /// The bus voltage while `load` is connected, V.
+    fn bus_voltage_v(&mut self, load: BusLoad) -> f64;
+}
+
+impl<F: FnMut(BusLoad) -> f64 + Send> ExternalBus for F {
+    fn bus_voltage_v(&mut self, load: BusLoad) -> f64 {
+        self(load)
+    }
+}
+
 /// The simulated bench.
-#[derive(Debug)]
 pub struct World {
     pub(crate) time: Rc<Cell<u64>>,
     /// Motor, propeller and ESC.
@@ -97,6 +112,20 @@ pub struct World {
     pub(crate) rng: Rng64,
     pub(crate) hx: Hx711State,
     pub(crate) ina: Ina226State,
+    pub(crate) external_bus: Option<Box<dyn ExternalBus>>,
+}
+
+impl std::fmt::Debug for World {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("World")
+            .field("time_us", &self.time.get())
+            .field("propulsion", &self.propulsion)
+            .field("supply", &self.supply)
+            .field("throttle_us", &self.throttle_us)
+            .field("placed_mass_g", &self.placed_mass_g)
+            .field("external_bus", &self.external_bus.is_some())
+            .finish_non_exhaustive()
+    }
 }
 
 impl World {
@@ -126,6 +155,7 @@ impl World {
                 ..Default::default()
             },
             ina: Ina226State::default(),
+            external_bus: None,
         }
     }
 
@@ -144,11 +174,30 @@ impl World {
     /// Advances physics by `dt_us`.
     pub fn step(&mut self, dt_us: u64) {
         let dt_s = dt_us as f64 * 1e-6;
+        if let Some(bus) = self.external_bus.as_mut() {
+            let load = self.propulsion.bus_load(self.throttle_us);
+            let v = bus.bus_voltage_v(load);
+            self.supply = Supply {
+                voltage_v: if v.is_finite() { v.max(0.0) } else { 0.0 },
+                resistance_ohm: 0.0,
+            };
+        }
         self.electrical = self.propulsion.step(dt_s, self.throttle_us, self.supply);
         let lc = self.load_cell;
         let net = self.load_g() - lc.preload_g;
         self.creep_g += (lc.creep_fraction * net - self.creep_g) * (dt_s / lc.creep_tau_s).min(1.0);
         self.time.set(self.time.get() + dt_us);
+    }
+
+    /// Connects an external supply that sets the bus voltage from now on (see
+    /// [`ExternalBus`]); `None` goes back to the world's own [`Supply`].
+    pub fn set_external_bus(&mut self, bus: Option<Box<dyn ExternalBus>>) {
+        self.external_bus = bus;
+    }
+
+    /// Whether an external supply sets the bus voltage.
+    pub fn has_external_bus(&self) -> bool {
+        self.external_bus.is_some()
     }
 
     /// Ground truth now.

@@ -2,6 +2,7 @@
 
 use clap::Subcommand;
 
+pub mod characterise;
 pub mod estimate;
 pub mod export;
 pub mod fit;
@@ -12,13 +13,23 @@ pub mod import;
 pub mod mission;
 pub mod optimise;
 pub mod paper;
+pub mod ports;
 pub mod report;
 pub mod sim_rig;
 pub mod simulate_flights;
+pub mod sweep;
 
 /// The subcommands.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// The main job: nominal sweep, limit sweep, fit and params.toml in one session folder
+    /// (simulated rig and supply when no ports are given).
+    #[command(alias = "characterize")]
+    Characterise(characterise::Args),
+    /// Run one thrust-targeted sweep of a rig on a bench supply (crash-safe log, --resume).
+    Sweep(sweep::Args),
+    /// List serial ports with their USB ids.
+    Ports(ports::Args),
     /// Fit a polynomial to a rig sweep (or any CSV) and write params.toml.
     Fit(fit::Args),
     /// Convert another thrust stand's log into a hoverbench sweep (one row per settled step).
@@ -52,6 +63,9 @@ pub enum Command {
 /// Runs a subcommand.
 pub fn run(command: Command) -> anyhow::Result<()> {
     match command {
+        Command::Characterise(a) => characterise::run(a),
+        Command::Sweep(a) => sweep::run(a),
+        Command::Ports(a) => ports::run(a),
         Command::Fit(a) => fit::run(a),
         Command::Import(a) => import::run(a),
         Command::Estimate(a) => estimate::run(a),

@@ -155,12 +155,54 @@ fn limit_from_sweep(path: &Path) -> Result<LimitMarker> {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> Result<()> {
+    let written = write(&args)?;
+    if args.json {
+        return output::print_json(&serde_json::json!({ "written": written }));
+    }
+    for w in &written {
+        println!("wrote {w}");
+    }
+    Ok(())
+}
+
+/// Draws a characterisation session's figures into `SESSION/report`, as
+/// `hoverbench report SESSION -o SESSION/report` would; with a battery (mass kg, Wh/kg) also
+/// Fig. 6 and the timeline of `plan`.
+pub fn session_figures(
+    session: &Path,
+    structure_mass_kg: f64,
+    avionics_power_w: f64,
+    battery: Option<(f64, f64)>,
+    plan: Option<String>,
+) -> Result<Vec<String>> {
+    write(&Args {
+        input: session.to_path_buf(),
+        output: session.join("report"),
+        sweep: None,
+        catalogue: None,
+        plan,
+        flights: None,
+        structure_mass: structure_mass_kg,
+        avionics_power: avionics_power_w,
+        payload_mass: 0.0,
+        payload_power: 0.0,
+        thrust_limit: None,
+        energy_density: None,
+        battery_mass: battery.map(|b| b.0),
+        battery_energy_density: battery.map(|b| b.1),
+        payload_powers: vec![0.0, 5.0],
+        eq8: Eq8::Consistent,
+        json: false,
+    })
+}
+
+fn write(args: &Args) -> Result<Vec<String>> {
     let params_path = params_path(&args.input);
     let file = ParamsFile::load(&params_path)?;
     let params = file
         .to_params()
         .with_context(|| format!("{} cannot drive the estimator", params_path.display()))?;
-    let inputs = locate(&args, &params_path, &file);
+    let inputs = locate(args, &params_path, &file);
     let mut model = params.model(args.structure_mass, args.avionics_power);
     let rotors = f64::from(model.platform.rotor_count);
     let mut provenance = vec![(
@@ -327,16 +369,9 @@ pub fn run(args: Args) -> Result<()> {
         provenance,
     };
     let files = reports::write_report(&input, &args.output)?;
-    let written: Vec<String> = files
+    Ok(files
         .paths()
         .iter()
         .map(|p| p.display().to_string())
-        .collect();
-    if args.json {
-        return output::print_json(&serde_json::json!({ "written": written }));
-    }
-    for w in &written {
-        println!("wrote {w}");
-    }
-    Ok(())
+        .collect())
 }

@@ -1,0 +1,117 @@
+//! What can go wrong on the host side.
+
+use std::path::PathBuf;
+
+use rig_protocol::FaultCause;
+use thiserror::Error;
+
+/// Every failure of the host side, with its context.
+#[derive(Debug, Error)]
+pub enum HostError {
+    /// A serial port could not be opened or listed.
+    #[error("serial port {path}: {source}")]
+    Port {
+        /// The port path (empty when listing).
+        path: String,
+        /// The serial library's error.
+        #[source]
+        source: serialport::Error,
+    },
+    /// The link to the rig broke (the port vanished, a write failed).
+    #[error("link to the rig lost during {during}: {message}")]
+    LinkLost {
+        /// What the host was doing.
+        during: &'static str,
+        /// The transport's error.
+        message: String,
+    },
+    /// The rig did not answer, or refused a command.
+    #[error("rig {during}: {message}")]
+    Rig {
+        /// What the host was doing.
+        during: &'static str,
+        /// The protocol client's error.
+        message: String,
+    },
+    /// The rig latched a fault.
+    #[error("rig fault: {cause:?} (value {value}, limit {limit})")]
+    Fault {
+        /// Why.
+        cause: FaultCause,
+        /// The offending reading.
+        value: f32,
+        /// The limit it crossed.
+        limit: f32,
+    },
+    /// The bench supply failed.
+    #[error("bench supply {during}: {source}")]
+    Supply {
+        /// What the host was doing.
+        during: &'static str,
+        /// The driver's error.
+        #[source]
+        source: Box<supply::SupplyError>,
+    },
+    /// The bench supply stopped answering its monitor.
+    #[error("bench supply monitor: {0}")]
+    SupplyLost(String),
+    /// Something took longer than allowed.
+    #[error("timeout: {what} after {seconds:.1} s of rig time")]
+    Timeout {
+        /// What.
+        what: String,
+        /// How long was waited, s (rig time).
+        seconds: f64,
+    },
+    /// The operator or a signal stopped the session.
+    #[error("interrupted")]
+    Interrupted,
+    /// Reading or writing a file failed.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// `--resume` found a log that does not belong to this sweep.
+    #[error("cannot resume {path}: {reason}")]
+    Resume {
+        /// The log.
+        path: PathBuf,
+        /// Why not.
+        reason: String,
+    },
+    /// A sweep log could not be read back for the fit.
+    #[error("reading {path}: {source}")]
+    Import {
+        /// The log.
+        path: PathBuf,
+        /// The reader's error.
+        #[source]
+        source: Box<import::ImportError>,
+    },
+    /// The fit failed.
+    #[error("{what}: {source}")]
+    Fit {
+        /// What was fitted.
+        what: String,
+        /// The fit's error.
+        #[source]
+        source: Box<fit::FitError>,
+    },
+    /// An argument or setting is out of range.
+    #[error("invalid setting: {0}")]
+    Invalid(String),
+}
+
+impl HostError {
+    /// Wraps an I/O error with its file.
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Self::Io {
+            path: path.into(),
+            source,
+        }
+    }
+}

@@ -1,0 +1,545 @@
+//! `characterise`: the paper's section III-C in one session folder — a nominal sweep, a
+//! limit sweep at the minimum battery voltage, the fit and `params.toml`, and a summary.
+//!
+//! The folder's files (stable names, see [`files`]):
+//!
+//! | file | what |
+//! | --- | --- |
+//! | `sweep.csv` | nominal sweep, one row per 10 g step (what `hoverbench fit` reads) |
+//! | `sweep-samples.csv` | its raw samples |
+//! | `limit.csv` | limit sweep at the minimum voltage, one row per throttle step |
+//! | `limit-samples.csv` | its raw samples |
+//! | `params.toml` | the fitted curve and thrust limit (`estimator::file`) |
+//! | `summary.txt`, `summary.json` | what was done and found |
+//! | `report/` | figures, written by `hoverbench report` |
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+
+use estimator::file::{ParamsFile, Provenance};
+use fit::export::{CurveLabels, LimitRecord};
+use import::stand::{StandLog, StandOptions};
+use rig_protocol::{Clock, Rig};
+
+use crate::bench_supply::SupplyControl;
+use crate::error::HostError;
+use crate::log::{self, StepRecord, SweepLog};
+use crate::sweep::{
+    LinkError, MassPlacer, SweepConfig, SweepEvent, SweepKind, SweepObserver, SweepOutcome,
+    calibrate, run_logged, sweep_header,
+};
+
+/// File names in a session folder.
+pub mod files {
+    /// Nominal sweep.
+    pub const SWEEP: &str = "sweep.csv";
+    /// Its samples.
+    pub const SWEEP_SAMPLES: &str = "sweep-samples.csv";
+    /// Limit sweep.
+    pub const LIMIT: &str = "limit.csv";
+    /// Its samples.
+    pub const LIMIT_SAMPLES: &str = "limit-samples.csv";
+    /// Parameters.
+    pub const PARAMS: &str = "params.toml";
+    /// Human summary.
+    pub const SUMMARY_TXT: &str = "summary.txt";
+    /// Machine summary.
+    pub const SUMMARY_JSON: &str = "summary.json";
+    /// Figures (written by the reports crate).
+    pub const REPORT_DIR: &str = "report";
+}
+
+/// How a characterisation runs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SessionConfig {
+    /// The session folder.
+    pub dir: PathBuf,
+    /// The nominal sweep (the paper: 10 g steps at 12.5 V).
+    pub nominal: SweepConfig,
+    /// The limit sweep (the paper: 9.0 V, the minimum battery voltage).
+    pub limit: SweepConfig,
+    /// Rotors sharing the take-off mass.
+    pub rotors: u8,
+    /// Degree of the power curve.
+    pub degree: usize,
+    /// Continue an interrupted session in `dir`.
+    pub resume: bool,
+    /// Known masses to calibrate the load cell with (empty: keep the rig's calibration).
+    pub calibration_masses_g: Vec<f64>,
+    /// What the bench is (for the summary).
+    pub bench: String,
+}
+
+impl SessionConfig {
+    /// The paper's session in `dir`: 10 g steps at 12.5 V, throttle steps at 9.0 V, a
+    /// fifth-order fit, four rotors.
+    pub fn paper(dir: impl Into<PathBuf>) -> Self {
+        Self {
+            dir: dir.into(),
+            nominal: SweepConfig::default(),
+            limit: SweepConfig {
+                kind: SweepKind::Limit { step_us: 50 },
+                voltage_v: 9.0,
+                ..SweepConfig::default()
+            },
+            rotors: 4,
+            degree: fit::DEFAULT_DEGREE,
+            resume: false,
+            calibration_masses_g: Vec::new(),
+            bench: "rig".into(),
+        }
+    }
+}
+
+/// The fit of a session.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct FitSummary {
+    /// Steps fitted.
+    pub n_points: usize,
+    /// Rows skipped as invalid (supply not regulating).
+    pub skipped_invalid: usize,
+    /// Monomial coefficients of power (W) in thrust (g), ascending.
+    pub coefficients: Vec<f64>,
+    /// Thrust range of the fit, g.
+    pub valid_range_g: (f64, f64),
+    /// RMS residual, W.
+    pub rmse_w: f64,
+    /// R².
+    pub r_squared: f64,
+    /// Mean voltage of the nominal sweep, V.
+    pub supply_voltage_v: Option<f64>,
+    /// Thrust limit per rotor, g.
+    pub thrust_limit_g: Option<f64>,
+    /// Its uncertainty, g.
+    pub thrust_limit_uncertainty_g: Option<f64>,
+    /// Thrust limit of all rotors, kg.
+    pub thrust_limit_total_kg: Option<f64>,
+    /// Mean voltage of the limit sweep, V.
+    pub limit_voltage_v: Option<f64>,
+    /// Fit warnings.
+    pub warnings: Vec<String>,
+}
+
+/// Summary of one sweep.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct SweepSummary {
+    /// Steps in the log.
+    pub steps: usize,
+    /// Of those, valid.
+    pub valid_steps: usize,
+    /// Steps taken from an interrupted run.
+    pub resumed_steps: usize,
+    /// How it ended.
+    pub end: String,
+    /// Rig time of this run, s (0 when it was already complete).
+    pub rig_time_s: f64,
+    /// Highest thrust logged, g.
+    pub max_thrust_g: f64,
+}
+
+impl SweepSummary {
+    fn of(rows: &[StepRecord], outcome: Option<&SweepOutcome>) -> Self {
+        Self {
+            steps: rows.len(),
+            valid_steps: rows.iter().filter(|r| r.valid).count(),
+            resumed_steps: outcome.map_or(rows.len(), |o| o.resumed_steps),
+            end: outcome.map_or("complete (earlier run)".into(), |o| o.end.to_string()),
+            rig_time_s: outcome.map_or(0.0, |o| o.rig_time_s),
+            max_thrust_g: rows.iter().map(|r| r.thrust_g).fold(0.0, f64::max),
+        }
+    }
+}
+
+/// What a characterisation produced.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct SessionSummary {
+    /// The bench.
+    pub bench: String,
+    /// The session folder.
+    pub dir: String,
+    /// Load-cell calibration.
+    pub calibration: String,
+    /// The nominal sweep.
+    pub nominal: SweepSummary,
+    /// The limit sweep.
+    pub limit: SweepSummary,
+    /// The fit.
+    pub fit: FitSummary,
+    /// Files written.
+    pub files: Vec<String>,
+}
+
+/// Writes `bytes` to `path` through a temporary file, fsync and rename.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), HostError> {
+    let tmp = path.with_extension("tmp~");
+    let mut f = std::fs::File::create(&tmp).map_err(|e| HostError::io(&tmp, e))?;
+    f.write_all(bytes).map_err(|e| HostError::io(&tmp, e))?;
+    f.sync_all().map_err(|e| HostError::io(&tmp, e))?;
+    std::fs::rename(&tmp, path).map_err(|e| HostError::io(path, e))
+}
+
+/// Fits a nominal sweep and a limit sweep as `hoverbench fit SWEEP --limit LIMIT` does.
+pub fn fit_sweeps(
+    sweep: &Path,
+    limit: &Path,
+    rotors: u8,
+    degree: usize,
+) -> Result<(ParamsFile, FitSummary), HostError> {
+    let read = |p: &Path| {
+        StandLog::read(p, &StandOptions::default()).map_err(|source| HostError::Import {
+            path: p.to_owned(),
+            source: Box::new(source),
+        })
+    };
+    let nominal = read(sweep)?;
+    let power = nominal
+        .column(|s| s.power_w)
+        .ok_or_else(|| HostError::Invalid(format!("{}: no power column", sweep.display())))?;
+    let thrust = nominal.thrust_g();
+    let fitted = fit::fit_polynomial(&thrust, &power, degree).map_err(|source| HostError::Fit {
+        what: format!("power against thrust in {}", sweep.display()),
+        source: Box::new(source),
+    })?;
+    let lim = read(limit)?;
+    let throttle = lim
+        .column(|s| s.throttle)
+        .ok_or_else(|| HostError::Invalid(format!("{}: no throttle column", limit.display())))?;
+    let std = lim.column(|s| s.thrust_std_g);
+    let opts = fit::ThrustLimitOptions {
+        thrust_std_g: std.as_deref(),
+        ..Default::default()
+    };
+    let l =
+        fit::thrust_limit(&throttle, &lim.thrust_g(), &opts).map_err(|source| HostError::Fit {
+            what: format!("thrust limit of {}", limit.display()),
+            source: Box::new(source),
+        })?;
+    let limit_v = lim.mean_voltage_v();
+    let record = LimitRecord {
+        limit: l,
+        supply_voltage_v: limit_v.unwrap_or(f64::NAN),
+    };
+    let provenance = Provenance {
+        input_file: sweep.display().to_string(),
+        input_sha256: import::sha256_hex(&nominal.bytes),
+        limit_input_file: Some(limit.display().to_string()),
+        limit_input_sha256: Some(import::sha256_hex(&lim.bytes)),
+        created: jiff::Timestamp::now().to_string(),
+        tool: format!("hoverbench rig-host {}", env!("CARGO_PKG_VERSION")),
+    };
+    let labels = CurveLabels {
+        x: "thrust_g",
+        y: "power_w",
+        supply_voltage_v: nominal.mean_voltage_v(),
+    };
+    let file = fit::export::params_file(&fitted, &labels, rotors, Some(&record), provenance);
+    let stats = fitted.stats();
+    let summary = FitSummary {
+        n_points: stats.n_points,
+        skipped_invalid: nominal.skipped_invalid,
+        coefficients: fitted.monomial_coefficients(),
+        valid_range_g: fitted.domain(),
+        rmse_w: stats.rmse,
+        r_squared: stats.r_squared,
+        supply_voltage_v: nominal.mean_voltage_v(),
+        thrust_limit_g: Some(l.thrust_g),
+        thrust_limit_uncertainty_g: Some(l.uncertainty_g),
+        thrust_limit_total_kg: Some(l.thrust_g * f64::from(rotors) / 1000.0),
+        limit_voltage_v: limit_v,
+        warnings: fitted.warnings().iter().map(ToString::to_string).collect(),
+    };
+    Ok((file, summary))
+}
+
+/// Runs one sweep of a session into `csv` (resuming or skipping it as the folder says).
+#[allow(clippy::too_many_arguments)]
+fn session_sweep<R: Rig>(
+    rig: &mut R,
+    clock: &dyn Clock,
+    identity: &rig_protocol::Identity,
+    supply: &mut dyn SupplyControl,
+    config: &SweepConfig,
+    header: &log::LogHeader,
+    csv: &Path,
+    samples: &Path,
+    resume: bool,
+    observer: &mut dyn SweepObserver,
+    stop: &AtomicBool,
+) -> Result<(Vec<StepRecord>, Option<SweepOutcome>), HostError>
+where
+    R::Error: LinkError,
+{
+    let columns = config.kind.columns();
+    if csv.exists() && resume {
+        let (log, state) = SweepLog::resume(csv, samples, header, columns)?;
+        if state.complete {
+            drop(log);
+            return Ok((state.rows, None));
+        }
+        let o = run_logged(
+            rig,
+            clock,
+            identity,
+            supply,
+            config,
+            &state.rows,
+            log,
+            observer,
+            stop,
+        )?;
+        return Ok((o.rows.clone(), Some(o)));
+    }
+    let log = SweepLog::create(csv, samples, header, columns)?;
+    let o = run_logged(
+        rig,
+        clock,
+        identity,
+        supply,
+        config,
+        &[],
+        log,
+        observer,
+        stop,
+    )?;
+    Ok((o.rows.clone(), Some(o)))
+}
+
+/// Checks that `dir` can take a new session (it holds none), unless resuming.
+pub fn check_session_dir(dir: &Path, resume: bool) -> Result<(), HostError> {
+    let taken = [files::SWEEP, files::LIMIT, files::PARAMS]
+        .iter()
+        .any(|f| dir.join(f).exists());
+    if taken && !resume {
+        return Err(HostError::Invalid(format!(
+            "{} already holds a session: give --resume to continue it, or another folder",
+            dir.display()
+        )));
+    }
+    Ok(())
+}
+
+/// Runs a characterisation on a connected rig and supply; see the [module docs](self).
+#[allow(clippy::too_many_arguments)]
+pub fn characterise<R: Rig>(
+    rig: &mut R,
+    clock: &dyn Clock,
+    supply: &mut dyn SupplyControl,
+    config: &SessionConfig,
+    placer: Option<&mut dyn MassPlacer>,
+    observer: &mut dyn SweepObserver,
+    stop: &AtomicBool,
+) -> Result<SessionSummary, HostError>
+where
+    R::Error: LinkError,
+{
+    let dir = &config.dir;
+    check_session_dir(dir, config.resume)?;
+    std::fs::create_dir_all(dir).map_err(|e| HostError::io(dir, e))?;
+    let p = |name: &str| dir.join(name);
+    let err = |during: &'static str| {
+        move |e: R::Error| HostError::Rig {
+            during,
+            message: format!("{e:?}"),
+        }
+    };
+    let identity = rig.identify().map_err(err("identify"))?;
+    let first_run = !p(files::SWEEP).exists();
+    let uncalibrated = rig.status().map_err(err("status"))?.calibration_points == 0;
+    let calibration = match placer {
+        Some(placer) if (first_run || uncalibrated) && !config.calibration_masses_g.is_empty() => {
+            observer.event(SweepEvent::Note("calibrating the load cell"));
+            calibrate(
+                rig,
+                clock,
+                &config.calibration_masses_g,
+                placer,
+                config.nominal.tare_samples,
+            )?
+            .1
+        }
+        _ => String::new(),
+    };
+    let status = rig.status().map_err(err("status"))?;
+    let calibration = if calibration.is_empty() {
+        format!("kept by the rig ({} points)", status.calibration_points)
+    } else {
+        calibration
+    };
+    let supply_id = supply.identity();
+    let mut done = Vec::new();
+    let mut run = |cfg: &SweepConfig,
+                   csv: &str,
+                   samples: &str,
+                   what: &str,
+                   rig: &mut R,
+                   supply: &mut dyn SupplyControl,
+                   observer: &mut dyn SweepObserver|
+     -> Result<(Vec<StepRecord>, Option<SweepOutcome>), HostError> {
+        observer.event(SweepEvent::Note(&format!(
+            "{what} sweep at {} V → {}",
+            cfg.voltage_v,
+            p(csv).display()
+        )));
+        let header = sweep_header(
+            cfg,
+            &identity,
+            status.calibration_points,
+            &calibration,
+            &supply_id,
+        );
+        let r = session_sweep(
+            rig,
+            clock,
+            &identity,
+            supply,
+            cfg,
+            &header,
+            &p(csv),
+            &p(samples),
+            config.resume,
+            observer,
+            stop,
+        )?;
+        done.push(csv.to_owned());
+        done.push(samples.to_owned());
+        Ok(r)
+    };
+    let (nominal_rows, nominal) = run(
+        &config.nominal,
+        files::SWEEP,
+        files::SWEEP_SAMPLES,
+        "nominal",
+        rig,
+        supply,
+        observer,
+    )?;
+    let (limit_rows, limit) = run(
+        &config.limit,
+        files::LIMIT,
+        files::LIMIT_SAMPLES,
+        "limit",
+        rig,
+        supply,
+        observer,
+    )?;
+    observer.event(SweepEvent::Note("fitting"));
+    let (params, fit) = fit_sweeps(
+        &p(files::SWEEP),
+        &p(files::LIMIT),
+        config.rotors,
+        config.degree,
+    )?;
+    write_atomic(&p(files::PARAMS), params.to_toml_string().as_bytes())?;
+    done.push(files::PARAMS.to_owned());
+    done.push(files::SUMMARY_TXT.to_owned());
+    done.push(files::SUMMARY_JSON.to_owned());
+    let summary = SessionSummary {
+        bench: config.bench.clone(),
+        dir: dir.display().to_string(),
+        calibration,
+        nominal: SweepSummary::of(&nominal_rows, nominal.as_ref()),
+        limit: SweepSummary::of(&limit_rows, limit.as_ref()),
+        fit,
+        files: done,
+    };
+    let json = serde_json::to_string_pretty(&summary)
+        .map_err(|e| HostError::Invalid(format!("summary: {e}")))?;
+    write_atomic(&p(files::SUMMARY_JSON), format!("{json}\n").as_bytes())?;
+    write_atomic(
+        &p(files::SUMMARY_TXT),
+        summary_text(&summary, &nominal_rows, &limit_rows).as_bytes(),
+    )?;
+    Ok(summary)
+}
+
+/// The human summary of a session: the steps of both sweeps, the fit and the thrust limit.
+pub fn summary_text(s: &SessionSummary, nominal: &[StepRecord], limit: &[StepRecord]) -> String {
+    use std::fmt::Write as _;
+    let mut t = String::new();
+    let _ = writeln!(t, "hoverbench characterise — {}", s.bench);
+    let _ = writeln!(t, "session folder: {}", s.dir);
+    let _ = writeln!(t, "load cell: {}", s.calibration);
+    let _ = writeln!(t);
+    let _ = writeln!(
+        t,
+        "nominal sweep: {} steps ({} valid), {}; {:.1} s of rig time",
+        s.nominal.steps, s.nominal.valid_steps, s.nominal.end, s.nominal.rig_time_s
+    );
+    let _ = writeln!(
+        t,
+        "{:>8} {:>9} {:>10} {:>9} {:>9} {:>9} {:>8} {:>5}",
+        "target_g",
+        "thrust_g",
+        "throttle_us",
+        "current_a",
+        "voltage_v",
+        "power_w",
+        "settle_s",
+        "mode"
+    );
+    for r in nominal {
+        let _ = writeln!(
+            t,
+            "{:>8} {:>9.2} {:>10} {:>9.3} {:>9.3} {:>9.3} {:>8.2} {:>5}{}",
+            r.target_g.map_or("-".into(), |x| format!("{x}")),
+            r.thrust_g,
+            r.throttle_us,
+            r.current_a,
+            r.voltage_v,
+            r.power_w,
+            r.settle_s,
+            log::mode_tag(r.supply_mode),
+            if r.valid { "" } else { "  invalid" }
+        );
+    }
+    let _ = writeln!(t);
+    let _ = writeln!(
+        t,
+        "limit sweep: {} steps ({} valid), {}; highest thrust {:.2} g",
+        s.limit.steps, s.limit.valid_steps, s.limit.end, s.limit.max_thrust_g
+    );
+    for r in limit.iter().rev().take(4).rev() {
+        let _ = writeln!(
+            t,
+            "  {} us: {:.2} ± {:.2} g at {:.3} V",
+            r.throttle_us, r.thrust_g, r.thrust_std_g, r.voltage_v
+        );
+    }
+    let f = &s.fit;
+    let _ = writeln!(t);
+    let _ = writeln!(
+        t,
+        "fit: power_w = p(thrust_g), degree {}, {} points ({} invalid rows skipped), {:.1}..{:.1} g, RMSE {:.4} W, R² {:.6}",
+        f.coefficients.len().saturating_sub(1),
+        f.n_points,
+        f.skipped_invalid,
+        f.valid_range_g.0,
+        f.valid_range_g.1,
+        f.rmse_w,
+        f.r_squared
+    );
+    if let (Some(l), Some(u), Some(kg)) = (
+        f.thrust_limit_g,
+        f.thrust_limit_uncertainty_g,
+        f.thrust_limit_total_kg,
+    ) {
+        let _ = writeln!(
+            t,
+            "thrust limit: {l:.1} ± {u:.1} g per rotor at {:.2} V → m_L = {kg:.3} kg",
+            f.limit_voltage_v.unwrap_or(f64::NAN)
+        );
+    }
+    for w in &f.warnings {
+        let _ = writeln!(t, "warning: {w}");
+    }
+    let _ = writeln!(t);
+    let _ = writeln!(t, "files: {}", s.files.join(", "));
+    if matches!(s.nominal.end.as_str(), e if e.starts_with("supply")) {
+        let _ = writeln!(
+            t,
+            "note: the nominal sweep stopped at the supply's current limit"
+        );
+    }
+    t
+}

@@ -1,0 +1,517 @@
+//! End-to-end tests of `hoverbench sweep` and `hoverbench characterise` over real
+//! pseudo-terminals: the simulated rig (the real firmware core) and the simulated bench
+//! supply, coupled electrically, driven by the binary as hardware would be.
+//!
+//! The rig runs 5× faster than real time; every wait polls with a generous deadline. The
+//! tests take a lock so that no two simulated benches compete for the CPU at once.
+
+#![cfg(unix)]
+
+use std::collections::HashSet;
+use std::path::Path;
+use std::process::{Child, Command, Output, Stdio};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+use rig_host::rig_protocol::{FaultCause, RigState};
+use rig_host::simbench::{SimBench, SimBenchOptions};
+use serde_json::Value;
+use sim::pty::{CorruptingProxy, Corruption, ProxyOptions};
+
+const SPEED: f64 = 5.0;
+
+static SERIAL: Mutex<()> = Mutex::new(());
+
+fn serial() -> std::sync::MutexGuard<'static, ()> {
+    SERIAL.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_hoverbench"))
+}
+
+fn run(args: &[&str]) -> Output {
+    bin().args(args).output().unwrap()
+}
+
+fn ok(args: &[&str]) -> String {
+    let out = run(args);
+    assert!(
+        out.status.success(),
+        "hoverbench {args:?} failed:\n{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
+}
+
+fn bench(seed: u64, record: bool) -> SimBench {
+    SimBench::spawn(
+        sim::presets::paper(),
+        SimBenchOptions {
+            speed: SPEED,
+            seed,
+            record_samples: record,
+            ..SimBenchOptions::default()
+        },
+    )
+    .unwrap()
+}
+
+fn sweep_args<'a>(rig: &'a str, supply: &'a str, out: &'a str) -> Vec<&'a str> {
+    vec![
+        "sweep", "--rig", rig, "--supply", supply, "--speed", "5", "-o", out,
+    ]
+}
+
+/// The step rows of a sweep log (data lines after the header), as text.
+fn rows(path: &Path) -> Vec<String> {
+    let text = std::fs::read_to_string(path).unwrap_or_default();
+    text.lines()
+        .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
+        .skip(1)
+        .map(str::to_owned)
+        .collect()
+}
+
+fn field(row: &str, i: usize) -> &str {
+    row.split(',').nth(i).unwrap()
+}
+
+/// Power (W) at `thrust_g` of the curve that `hoverbench fit --json` found.
+fn fitted_power(fit: &Value, thrust_g: f64) -> f64 {
+    fit["coefficients"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .rev()
+        .fold(0.0, |acc, c| acc * thrust_g + c.as_f64().unwrap())
+}
+
+fn wait_for(what: &str, timeout: Duration, mut f: impl FnMut() -> bool) {
+    let end = Instant::now() + timeout;
+    while !f() {
+        assert!(Instant::now() < end, "timed out waiting for {what}");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+}
+
+fn kill_at_rows(child: &mut Child, log: &Path, n: usize) {
+    wait_for("steps in the log", Duration::from_secs(120), || {
+        if let Ok(Some(status)) = child.try_wait() {
+            let mut err = String::new();
+            if let Some(e) = child.stderr.as_mut() {
+                use std::io::Read;
+                let _ = e.read_to_string(&mut err);
+            }
+            panic!("sweep ended early: {status}\n{err}");
+        }
+        rows(log).len() >= n
+    });
+}
+
+#[test]
+fn characterise_on_the_simulated_bench_lands_on_the_paper_optima() {
+    let _g = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let session = dir.path().join("session");
+    let s = session.to_str().unwrap();
+    let out = ok(&["characterise", "--speed", "5", "-o", s]);
+    let first = out.lines().next().unwrap();
+    assert!(first.starts_with("simulated bench:"), "{first}");
+    assert!(first.contains("5× real time"), "{first}");
+    for f in [
+        "sweep.csv",
+        "sweep-samples.csv",
+        "limit.csv",
+        "limit-samples.csv",
+        "params.toml",
+        "summary.txt",
+        "summary.json",
+    ] {
+        assert!(session.join(f).exists(), "{f} missing");
+    }
+    let params = session.join("params.toml");
+    let opt: Value = serde_json::from_str(&ok(&[
+        "optimise",
+        "--params",
+        params.to_str().unwrap(),
+        "--structure-mass",
+        "431g",
+        "--avionics-power",
+        "2.44",
+        "--energy-density",
+        "164",
+        "--json",
+    ]))
+    .unwrap();
+    let g = |a: &str, b: &str| opt[a][b].as_f64().unwrap();
+    let (im, it) = (g("ideal", "battery_mass_kg"), g("ideal", "endurance_min"));
+    let (rm, rt) = (
+        g("realistic", "battery_mass_kg"),
+        g("realistic", "endurance_min"),
+    );
+    println!("ideal {im:.4} kg {it:.3} min, realistic {rm:.4} kg {rt:.3} min");
+    assert!((im - 0.353).abs() <= 0.005, "ideal m_B {im}");
+    assert!((it / 19.76 - 1.0).abs() <= 0.01, "ideal t_E {it}");
+    assert!((rm - 0.169).abs() <= 0.005, "realistic m_B {rm}");
+    assert!((rt / 15.28 - 1.0).abs() <= 0.01, "realistic t_E {rt}");
+    // The session's logs are what `hoverbench fit` reads.
+    let fit: Value = serde_json::from_str(&ok(&[
+        "fit",
+        session.join("sweep.csv").to_str().unwrap(),
+        "--limit",
+        session.join("limit.csv").to_str().unwrap(),
+        "--json",
+    ]))
+    .unwrap();
+    assert_eq!(fit["log_kind"], "hoverbench sweep");
+    let m_l = fit["thrust_limit"]["total_kg"].as_f64().unwrap();
+    assert!((m_l - 0.600).abs() <= 0.005, "m_L {m_l}");
+    // Every nominal step hit its target within ±1 g, except the last at full throttle.
+    let r = rows(&session.join("sweep.csv"));
+    assert!(r.len() >= 26, "{} steps", r.len());
+    for row in &r[..r.len() - 1] {
+        let target: f64 = field(row, 1).parse().unwrap();
+        let thrust: f64 = field(row, 3).parse().unwrap();
+        assert!((thrust - target).abs() <= 1.0, "{row}");
+        assert_eq!(field(row, 14), "CV");
+    }
+    assert_eq!(field(r.last().unwrap(), 2), "2000");
+}
+
+#[test]
+fn host_killed_mid_sweep_watchdog_drops_throttle_and_resume_matches_an_uninterrupted_fit() {
+    let _g = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("sweep.csv");
+    let l = log.to_str().unwrap();
+    let b = bench(5, false);
+    let (rp, sp) = (b.rig_path(), b.supply_path().to_owned());
+    let mut child = bin()
+        .args(sweep_args(&rp, &sp, l))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    kill_at_rows(&mut child, &log, 8);
+    let before = rows(&log);
+    assert!(
+        b.rig_snapshot().truth.unwrap().throttle_us > 1100.0,
+        "spinning at the kill"
+    );
+    // The watchdog: throttle to minimum and a latched host-timeout fault within 250 ms of
+    // rig time after the last frame from the host. The rig's snapshots (refreshed every
+    // pass of its loop, at most 20 ms of rig time apart), traced from before the kill,
+    // bracket that last frame by the frames-received counter: it arrived after the last
+    // snapshot with a lower count.
+    let trace: Vec<(u64, u32, bool)> = std::thread::scope(|scope| {
+        let tracer = scope.spawn(|| {
+            let mut trace = Vec::new();
+            let end = Instant::now() + Duration::from_secs(10);
+            while Instant::now() < end {
+                let s = b.rig_snapshot();
+                let dropped = s.faults.contains(FaultCause::HostTimeout)
+                    && s.truth.is_some_and(|t| t.throttle_us <= 1000.0);
+                trace.push((s.sim_time_us, s.rx_stats.frames_ok, dropped));
+                if dropped {
+                    break;
+                }
+                std::thread::sleep(Duration::from_micros(200));
+            }
+            trace
+        });
+        std::thread::sleep(Duration::from_millis(20));
+        child.kill().unwrap();
+        child.wait().unwrap();
+        tracer.join().unwrap()
+    });
+    assert!(
+        trace.last().unwrap().2,
+        "the watchdog did not trip within 10 s"
+    );
+    let &(t_drop_us, final_count, _) = trace.last().unwrap();
+    let t_before_last_frame_us = trace
+        .iter()
+        .rev()
+        .find(|(_, n, _)| *n < final_count)
+        .map(|(t, _, _)| *t)
+        .expect("frames arrived while the trace ran");
+    let bound_ms = (t_drop_us - t_before_last_frame_us) as f64 / 1000.0;
+    println!("throttle at minimum ≤ {bound_ms:.0} ms of rig time after the host's last frame");
+    // 250 ms, plus the two snapshot intervals that bracket the last frame and the drop.
+    assert!(bound_ms <= 250.0 + 2.0 * 20.0, "{bound_ms} ms");
+    assert_eq!(b.rig_snapshot().state, RigState::Faulted);
+    // Every step completed before the kill is intact, in order.
+    let after_kill = rows(&log);
+    assert!(after_kill.len() >= before.len());
+    assert_eq!(after_kill[..before.len()], before[..]);
+    for (i, r) in after_kill.iter().enumerate() {
+        assert_eq!(r.split(',').count(), 16, "{r}");
+        assert_eq!(field(r, 0), i.to_string());
+    }
+    // Resume to the end.
+    let mut args = sweep_args(&rp, &sp, l);
+    args.push("--resume");
+    let out = ok(&args);
+    assert!(out.contains("resuming after"), "{out}");
+    let resumed = rows(&log);
+    assert_eq!(resumed[..after_kill.len()], after_kill[..]);
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert!(text.contains("# resumed: after"));
+    assert!(text.trim_end().ends_with("# end: complete"), "{text}");
+    for (i, r) in resumed.iter().enumerate() {
+        assert_eq!(field(r, 0), i.to_string());
+    }
+    drop(b);
+
+    // An uninterrupted sweep on a fresh bench.
+    let b2 = bench(6, false);
+    let log2 = dir.path().join("uninterrupted.csv");
+    ok(&sweep_args(
+        &b2.rig_path(),
+        b2.supply_path(),
+        log2.to_str().unwrap(),
+    ));
+    drop(b2);
+    let fit = |p: &Path| -> Value {
+        serde_json::from_str(&ok(&["fit", p.to_str().unwrap(), "--json"])).unwrap()
+    };
+    if std::env::var_os("RIG_TEST_KEEP").is_some() {
+        std::fs::copy(&log, "/tmp/hb/resumed.csv").unwrap();
+        std::fs::copy(&log2, "/tmp/hb/uninterrupted.csv").unwrap();
+        std::fs::copy(
+            dir.path().join("sweep-samples.csv"),
+            "/tmp/hb/resumed-samples.csv",
+        )
+        .unwrap();
+    }
+    let (f1, f2) = (fit(&log), fit(&log2));
+    for t in [30.0, 80.0, 130.0, 180.0, 230.0] {
+        let (p1, p2) = (fitted_power(&f1, t), fitted_power(&f2, t));
+        println!("{t} g: resumed {p1:.3} W, uninterrupted {p2:.3} W");
+        assert!((p1 / p2 - 1.0).abs() < 0.01, "{t} g: {p1} vs {p2}");
+    }
+}
+
+#[test]
+fn bit_flips_and_dropped_bytes_never_log_a_wrong_sample() {
+    let _g = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("sweep.csv");
+    let b = bench(9, true);
+    let damage = Corruption {
+        flip_probability: 2e-3,
+        drop_probability: 1e-3,
+    };
+    let proxy = CorruptingProxy::spawn(
+        b.rig().path(),
+        ProxyOptions {
+            to_host: damage,
+            to_rig: damage,
+            seed: 3,
+        },
+    )
+    .unwrap();
+    let proxy_path = proxy.path().display().to_string();
+    let mut args = sweep_args(&proxy_path, b.supply_path(), log.to_str().unwrap());
+    args.extend(["--max-target", "120"]);
+    let out = run(&args);
+    let stats = proxy.stats();
+    println!("{stats:?}\n{}", String::from_utf8_lossy(&out.stderr));
+    let text = std::fs::read_to_string(&log).unwrap_or_default();
+    if out.status.success() {
+        assert!(stats.corrupted_to_host > 10, "{stats:?}");
+        assert!(text.trim_end().ends_with("# end: complete"));
+        assert_eq!(rows(&log).len(), 12);
+    } else {
+        // Stopped safely: the reason closes the log, the rig is at rest, the supply off.
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            text.is_empty() || text.contains("# end: stopped:"),
+            "{text}"
+        );
+        assert!(err.contains("error:"), "{err}");
+        assert_ne!(b.rig_snapshot().state, RigState::Armed);
+        assert!(!b.supply_device().settings().output_on);
+    }
+    // Every logged sample is one the rig sent, bit for bit.
+    let sent: HashSet<(u64, u16, u32, u32, u32)> = b
+        .rig_snapshot()
+        .sent_samples
+        .iter()
+        .map(|s| {
+            (
+                s.time_us,
+                s.throttle_us,
+                s.thrust_g.to_bits(),
+                s.current_a.to_bits(),
+                s.voltage_v.to_bits(),
+            )
+        })
+        .collect();
+    let samples = std::fs::read_to_string(dir.path().join("sweep-samples.csv")).unwrap_or_default();
+    let mut n = 0;
+    for l in samples
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.starts_with("step"))
+    {
+        let c: Vec<&str> = l.split(',').collect();
+        let key = (
+            c[3].parse().unwrap(),
+            c[4].parse().unwrap(),
+            c[5].parse::<f32>().unwrap().to_bits(),
+            c[6].parse::<f32>().unwrap().to_bits(),
+            c[7].parse::<f32>().unwrap().to_bits(),
+        );
+        assert!(sent.contains(&key), "logged sample the rig never sent: {l}");
+        n += 1;
+    }
+    println!("{n} samples logged, every one as the rig sent it");
+    if out.status.success() {
+        assert!(n > 1000, "{n} samples");
+    }
+}
+
+#[test]
+fn supply_current_limit_marks_rows_invalid_backs_off_and_the_fit_skips_them() {
+    let _g = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("sweep.csv");
+    let b = bench(11, false);
+    let rp = b.rig_path();
+    let mut args = sweep_args(&rp, b.supply_path(), log.to_str().unwrap());
+    args.extend(["--current-limit", "4"]);
+    let out = ok(&args);
+    assert!(out.contains("current limit"), "{out}");
+    let r = rows(&log);
+    let invalid: Vec<&String> = r.iter().filter(|r| field(r, 15) == "false").collect();
+    assert_eq!(invalid.len(), 1, "{r:#?}");
+    let bad = invalid[0];
+    println!("current-limited row: {bad}");
+    assert_eq!(field(bad, 14), "CC");
+    assert_eq!(
+        bad,
+        r.last().unwrap(),
+        "the sweep stops at the limited step"
+    );
+    // Current-limited: the bus sagged below the set voltage at the limit.
+    let (i, v): (f64, f64) = (
+        field(bad, 5).parse().unwrap(),
+        field(bad, 7).parse().unwrap(),
+    );
+    assert!(i <= 4.05 && v < 12.4, "{bad}");
+    for row in &r[..r.len() - 1] {
+        assert_eq!(field(row, 14), "CV");
+    }
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert!(
+        text.contains("# end: stopped: supply current-limited"),
+        "{text}"
+    );
+    // Backed off: throttle at minimum, disarmed, supply off.
+    assert_eq!(b.rig_snapshot().state, RigState::Disarmed);
+    assert!(!b.supply_device().settings().output_on);
+    let fit: Value = serde_json::from_str(&ok(&[
+        "fit",
+        log.to_str().unwrap(),
+        "--degree",
+        "3",
+        "--json",
+    ]))
+    .unwrap();
+    assert_eq!(fit["skipped_invalid_rows"], 1);
+    assert_eq!(fit["n_points"].as_u64().unwrap() as usize, r.len() - 1);
+}
+
+#[test]
+fn ctrl_c_stops_safely_with_the_reason_in_the_log() {
+    let _g = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("sweep.csv");
+    let b = bench(13, false);
+    let mut child = bin()
+        .args(sweep_args(
+            &b.rig_path(),
+            b.supply_path(),
+            log.to_str().unwrap(),
+        ))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    kill_at_rows(&mut child, &log, 4);
+    // SAFETY: sending SIGINT to our own child process.
+    #[allow(unsafe_code)]
+    let rc = unsafe { libc::kill(child.id() as libc::pid_t, libc::SIGINT) };
+    assert_eq!(rc, 0);
+    let out = child.wait_with_output().unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("interrupted") && err.contains("--resume"),
+        "{err}"
+    );
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert!(
+        text.trim_end().ends_with("# end: stopped: interrupted"),
+        "{text}"
+    );
+    assert_eq!(b.rig_snapshot().state, RigState::Disarmed);
+    assert!(b.rig_snapshot().truth.unwrap().throttle_us <= 1000.0);
+    assert!(!b.supply_device().settings().output_on);
+}
+
+#[test]
+fn ports_lists_without_failing() {
+    let v: Value = serde_json::from_str(&ok(&["ports", "--json"])).unwrap();
+    assert!(v.is_array());
+}
+
+#[test]
+fn a_vanished_rig_port_stops_the_sweep_safely() {
+    let _g = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let log = dir.path().join("sweep.csv");
+    let b = bench(17, false);
+    // The proxy stands in for a USB adapter that is unplugged mid-sweep.
+    let proxy = CorruptingProxy::spawn(
+        b.rig().path(),
+        ProxyOptions {
+            to_host: Corruption::NONE,
+            to_rig: Corruption::NONE,
+            seed: 1,
+        },
+    )
+    .unwrap();
+    let pp = proxy.path().display().to_string();
+    let mut child = bin()
+        .args(sweep_args(&pp, b.supply_path(), log.to_str().unwrap()))
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    kill_at_rows(&mut child, &log, 3);
+    drop(proxy);
+    let out = child.wait_with_output().unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    println!("{err}");
+    assert!(err.contains("sweep stopped"), "{err}");
+    let text = std::fs::read_to_string(&log).unwrap();
+    assert!(
+        text.trim_end()
+            .lines()
+            .last()
+            .unwrap()
+            .starts_with("# end: stopped:"),
+        "{text}"
+    );
+    assert!(rows(&log).len() >= 3);
+    // The host switched the supply off; the rig's watchdog stopped the motor.
+    assert!(!b.supply_device().settings().output_on);
+    wait_for("the rig's watchdog", Duration::from_secs(10), || {
+        let s = b.rig_snapshot();
+        s.state != RigState::Armed && s.truth.is_some_and(|t| t.throttle_us <= 1000.0)
+    });
+}
