@@ -36,7 +36,14 @@ pub struct Args {
     output: Option<PathBuf>,
 }
 
-fn read(paths: &[PathBuf], skipped: &mut Vec<(String, String)>) -> Result<Vec<FlightRecord>> {
+/// How a flight's phases were obtained: (flight, "logged" / "inferred: …" / "none").
+type PhaseNote = (String, String);
+
+fn read(
+    paths: &[PathBuf],
+    skipped: &mut Vec<(String, String)>,
+    phases: &mut Vec<PhaseNote>,
+) -> Result<Vec<FlightRecord>> {
     let mut out = Vec::new();
     for p in paths {
         let set = if p.is_dir() {
@@ -52,6 +59,24 @@ fn read(paths: &[PathBuf], skipped: &mut Vec<(String, String)>) -> Result<Vec<Fl
             skipped.push((s.path.display().to_string(), s.reason.to_string()));
         }
         for f in &set.flights {
+            phases.push((
+                f.name.clone(),
+                match &f.phase_source {
+                    flightlog::PhaseSource::Logged => "logged".to_owned(),
+                    flightlog::PhaseSource::Inferred { method, notes } => {
+                        let mut t = format!("inferred: {method}");
+                        for n in notes {
+                            t.push_str("; ");
+                            t.push_str(n);
+                        }
+                        t
+                    }
+                    flightlog::PhaseSource::None => {
+                        "none: no phase, current or altitude; every sample taken as hover"
+                            .to_owned()
+                    }
+                },
+            ));
             match record_from_log(f) {
                 Ok(r) => out.push(r),
                 Err(e) => skipped.push((f.source.display().to_string(), e.to_string())),
@@ -75,6 +100,7 @@ struct Json<'a> {
     split: serde_json::Value,
     split_rule: &'a str,
     skipped: &'a [(String, String)],
+    phase_sources: &'a [PhaseNote],
     candidates: &'a [gap::diagnose::Candidate],
 }
 
@@ -95,8 +121,9 @@ fn levels(e: &LevelErrors) -> String {
 /// Runs the subcommand.
 pub fn run(args: Args) -> Result<()> {
     let mut skipped = Vec::new();
-    let mut train = read(&args.flights, &mut skipped)?;
-    let mut held = read(&args.holdout, &mut skipped)?;
+    let mut phase_notes = Vec::new();
+    let mut train = read(&args.flights, &mut skipped, &mut phase_notes)?;
+    let mut held = read(&args.holdout, &mut skipped, &mut phase_notes)?;
     let rule = if args.holdout.is_empty() {
         let names: Vec<String> = train.iter().map(|f| f.name.clone()).collect();
         let mask = default_split(&names);
@@ -213,6 +240,7 @@ pub fn run(args: Args) -> Result<()> {
             split: serde_json::json!({"train": d.split.0, "heldout": d.split.1}),
             split_rule: rule,
             skipped: &skipped,
+            phase_sources: &phase_notes,
             candidates: &d.candidates,
         });
     }
@@ -228,6 +256,27 @@ pub fn run(args: Args) -> Result<()> {
     );
     for (path, why) in &skipped {
         println!("skipped {path}: {why}");
+    }
+    let inferred: Vec<&PhaseNote> = phase_notes
+        .iter()
+        .filter(|(_, n)| n.starts_with("inferred"))
+        .collect();
+    let missing = phase_notes
+        .iter()
+        .filter(|(_, n)| n.starts_with("none"))
+        .count();
+    if let Some((name, how)) = inferred.first() {
+        println!(
+            "phases inferred for {} of {} flights (first, {name}: {})",
+            inferred.len(),
+            phase_notes.len(),
+            how.trim_start_matches("inferred: ")
+        );
+    }
+    if missing > 0 {
+        println!(
+            "{missing} flights have no phases, current or altitude: every sample is taken as hover"
+        );
     }
     println!();
     println!("gap before, held-out: {}", levels(&d.baseline.1));
