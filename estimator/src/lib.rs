@@ -97,16 +97,7 @@ impl<C: PowerCurve> Model<C> {
         plan: &[Segment],
         options: &MissionOptions,
     ) -> Result<(MissionSummary, Vec<SegmentOutcome>), EstimateError> {
-        let blank = SegmentOutcome {
-            segment: Segment::HoverUntilEmpty,
-            start_min: 0.0,
-            duration_min: 0.0,
-            energy_used_wh: 0.0,
-            energy_left_wh: 0.0,
-            post_ceiling_ratio: 0.0,
-            reserved_endurance_min: 0.0,
-        };
-        let mut out = vec![blank; plan.len()];
+        let mut out = vec![SegmentOutcome::EMPTY; plan.len()];
         let s = self.evaluate_mission(battery, payload, plan, options, &mut out)?;
         out.truncate(s.segments_evaluated);
         Ok((s, out))

@@ -89,6 +89,19 @@ pub struct SegmentOutcome {
     pub reserved_endurance_min: f64,
 }
 
+impl SegmentOutcome {
+    /// A placeholder to fill an output buffer with before evaluating a mission.
+    pub const EMPTY: Self = Self {
+        segment: Segment::HoverUntilEmpty,
+        start_min: 0.0,
+        duration_min: 0.0,
+        energy_used_wh: 0.0,
+        energy_left_wh: 0.0,
+        post_ceiling_ratio: 0.0,
+        reserved_endurance_min: 0.0,
+    };
+}
+
 /// Where and when a plan ran out.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Depletion {
@@ -261,15 +274,7 @@ mod tests {
         let m = model();
         let b = Battery::from_density(0.144, 164.0).unwrap();
         for form in [Eq8Form::Consistent, Eq8Form::PrintedHours] {
-            let mut out = [SegmentOutcome {
-                segment: Segment::HoverUntilEmpty,
-                start_min: 0.0,
-                duration_min: 0.0,
-                energy_used_wh: 0.0,
-                energy_left_wh: 0.0,
-                post_ceiling_ratio: 0.0,
-                reserved_endurance_min: 0.0,
-            }; 7];
+            let mut out = [SegmentOutcome::EMPTY; 7];
             let opts = MissionOptions {
                 eq8: form,
                 ..Default::default()
@@ -302,15 +307,7 @@ mod tests {
             },
             Segment::Attached { duration_min: 1.0 },
         ];
-        let mut out = [SegmentOutcome {
-            segment: Segment::HoverUntilEmpty,
-            start_min: 0.0,
-            duration_min: 0.0,
-            energy_used_wh: 0.0,
-            energy_left_wh: 0.0,
-            post_ceiling_ratio: 0.0,
-            reserved_endurance_min: 0.0,
-        }; 3];
+        let mut out = [SegmentOutcome::EMPTY; 3];
         let s = m
             .evaluate_mission(
                 &b,
@@ -332,15 +329,7 @@ mod tests {
         let m = model();
         let b = Battery::from_density(0.144, 164.0).unwrap();
         let plan = [Segment::HoverUntilEmpty];
-        let mut out = [SegmentOutcome {
-            segment: Segment::HoverUntilEmpty,
-            start_min: 0.0,
-            duration_min: 0.0,
-            energy_used_wh: 0.0,
-            energy_left_wh: 0.0,
-            post_ceiling_ratio: 0.0,
-            reserved_endurance_min: 0.0,
-        }; 1];
+        let mut out = [SegmentOutcome::EMPTY; 1];
         let opts = MissionOptions {
             reserve_floor_fraction: 0.2,
             ..Default::default()

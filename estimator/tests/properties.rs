@@ -72,11 +72,7 @@ proptest! {
             eq8: if printed { Eq8Form::PrintedHours } else { Eq8Form::Consistent },
             ..Default::default()
         };
-        let mut out = vec![SegmentOutcome {
-            segment: Segment::HoverUntilEmpty, start_min: 0.0, duration_min: 0.0,
-            energy_used_wh: 0.0, energy_left_wh: 0.0, post_ceiling_ratio: 0.0,
-            reserved_endurance_min: 0.0,
-        }; plan.len()];
+        let mut out = vec![SegmentOutcome::EMPTY; plan.len()];
         let s = m.evaluate_mission(&b, &Payload::default(), &plan, &opts, &mut out).unwrap();
         let used: f64 = out[..s.segments_evaluated].iter().map(|o| o.energy_used_wh).sum();
         prop_assert!((used + s.energy_left_wh - b.energy_wh).abs() < 1e-9);

@@ -465,27 +465,8 @@ impl<C: PowerCurve> Evaluator<'_, C> {
                     }
                 }
                 let w = (hi - lo) / f64::from(steps);
-                let (mut a, mut b) = ((bx - w).max(lo), (bx + w).min(hi));
-                let g = (5f64.sqrt() - 1.0) / 2.0;
-                let mut c = b - g * (b - a);
-                let mut d = a + g * (b - a);
-                let (mut fc, mut fd) = (f(c), f(d));
-                for _ in 0..30 {
-                    if fc < fd {
-                        b = d;
-                        d = c;
-                        fd = fc;
-                        c = b - g * (b - a);
-                        fc = f(c);
-                    } else {
-                        a = c;
-                        c = d;
-                        fc = fd;
-                        d = a + g * (b - a);
-                        fd = f(d);
-                    }
-                }
-                let (x, v) = if fc < fd { (c, fc) } else { (d, fd) };
+                let (a, b) = ((bx - w).max(lo), (bx + w).min(hi));
+                let (x, v) = golden_min(&f, a, b, 30);
                 if v < bv {
                     bv = v;
                     bx = x;
@@ -560,6 +541,36 @@ impl<C: PowerCurve> Evaluator<'_, C> {
         }
         total
     }
+}
+
+/// Golden-section search for the minimum of `f` on `[a, b]`: the best of the last two interior
+/// points after `iterations` steps, with its value.
+pub(crate) fn golden_min(
+    f: &dyn Fn(f64) -> f64,
+    mut a: f64,
+    mut b: f64,
+    iterations: usize,
+) -> (f64, f64) {
+    let g = (5f64.sqrt() - 1.0) / 2.0;
+    let mut c = b - g * (b - a);
+    let mut d = a + g * (b - a);
+    let (mut fc, mut fd) = (f(c), f(d));
+    for _ in 0..iterations {
+        if fc < fd {
+            b = d;
+            d = c;
+            fd = fc;
+            c = b - g * (b - a);
+            fc = f(c);
+        } else {
+            a = c;
+            c = d;
+            fc = fd;
+            d = a + g * (b - a);
+            fd = f(d);
+        }
+    }
+    if fc < fd { (c, fc) } else { (d, fd) }
 }
 
 fn pearson(x: &[f64], y: &[f64]) -> Option<f64> {

@@ -193,7 +193,7 @@ pub fn estimate_hover_power(train: &[&FlightRecord], opts: &DiagnoseOptions) -> 
             reference_mass_kg,
         };
     }
-    let (mut a, mut b) = {
+    let (a, b) = {
         // Scan decades for a bracket: per-cell energy and flight lengths vary a lot.
         let cand: Vec<f64> = (0..40).map(|k| 0.1 * 1.3f64.powi(k)).collect();
         let best = cand
@@ -203,27 +203,9 @@ pub fn estimate_hover_power(train: &[&FlightRecord], opts: &DiagnoseOptions) -> 
             .unwrap_or(1.0);
         (best / 1.3, best * 1.3)
     };
-    let g = (5f64.sqrt() - 1.0) / 2.0;
-    let mut c = b - g * (b - a);
-    let mut d = a + g * (b - a);
-    let (mut fc, mut fd) = (chi2(c), chi2(d));
-    for _ in 0..40 {
-        if fc < fd {
-            b = d;
-            d = c;
-            fd = fc;
-            c = b - g * (b - a);
-            fc = chi2(c);
-        } else {
-            a = c;
-            c = d;
-            fc = fd;
-            d = a + g * (b - a);
-            fd = chi2(d);
-        }
-    }
+    let (w, _) = crate::diagnose::golden_min(&chi2, a, b, 40);
     ConstantPower {
-        hover_power_w: 0.5 * (a + b),
+        hover_power_w: w,
         reference_mass_kg,
     }
 }
