@@ -49,6 +49,20 @@ pub enum ReportError {
     /// An input table could not be read.
     #[error(transparent)]
     Import(#[from] import::ImportError),
+    /// The parameter file could not be read or does not describe a thrust curve.
+    #[error(transparent)]
+    Params(#[from] estimator::file::ParamsFileError),
+    /// The mission plan does not parse.
+    #[error("mission plan: {0}")]
+    Plan(#[from] estimator::plan::PlanError),
+    /// A fit needed by a figure failed.
+    #[error("{context}: {source}")]
+    Fit {
+        /// What was being fitted.
+        context: String,
+        /// The fit's reason.
+        source: fit::FitError,
+    },
     /// A file or folder could not be written.
     #[error("{path}: {source}")]
     Io {

@@ -3,13 +3,8 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result, bail};
-use estimator::file::ParamsFile;
-use estimator::{Battery, Eq8Form, MissionOptions, Payload};
-use import::Table;
-use reports::{
-    LimitMarker, MeasuredFlight, MissionInput, NamedBattery, PayloadStudy, ReportInput, Sweep,
-};
+use anyhow::Result;
+use estimator::{Eq8Form, Payload};
 
 use crate::output;
 
@@ -84,75 +79,6 @@ pub struct Args {
     json: bool,
 }
 
-/// The parameter file of a session folder, or the given file.
-fn params_path(input: &Path) -> PathBuf {
-    if input.is_dir() {
-        input.join("params.toml")
-    } else {
-        input.to_owned()
-    }
-}
-
-/// The sweeps that go with the parameters: the nominal sweep (`--sweep`, else the session's
-/// `sweep.csv`, else the file the parameters were fitted from, as recorded or beside the params
-/// file) and the session's limit sweep.
-struct Inputs {
-    sweep: Option<PathBuf>,
-    limit: Option<PathBuf>,
-}
-
-fn locate(args: &Args, params: &Path, file: &ParamsFile) -> Inputs {
-    let session = args.input.is_dir().then_some(args.input.as_path());
-    let in_session = |name: &str| session.map(|d| d.join(name)).filter(|p| p.is_file());
-    let from_provenance = || {
-        let recorded = Path::new(&file.provenance.input_file);
-        let beside = params.parent().map(|d| d.join(recorded));
-        [Some(recorded.to_owned()), beside]
-            .into_iter()
-            .flatten()
-            .find(|p| p.is_file())
-    };
-    let sweep = args
-        .sweep
-        .clone()
-        .or_else(|| in_session("sweep.csv"))
-        .or_else(from_provenance);
-    Inputs {
-        limit: in_session("limit.csv"),
-        sweep,
-    }
-}
-
-fn read(path: &Path, what: &str) -> Result<(Table, String)> {
-    let (table, bytes) = Table::read(path).with_context(|| format!("reading the {what}"))?;
-    Ok((table, import::sha256_hex(&bytes)))
-}
-
-fn limit_from_sweep(path: &Path) -> Result<LimitMarker> {
-    let (t, _) = read(path, "limit sweep")?;
-    let std = if t.has("thrust_std_g") {
-        Some(t.column("thrust_std_g")?)
-    } else {
-        None
-    };
-    let opts = fit::ThrustLimitOptions {
-        thrust_std_g: std.as_deref(),
-        ..Default::default()
-    };
-    let l = fit::thrust_limit(&t.column("throttle")?, &t.column("thrust_g")?, &opts)
-        .with_context(|| format!("extracting the thrust limit from {}", path.display()))?;
-    let v = t
-        .column("voltage_v")
-        .ok()
-        .map(|v| v.iter().sum::<f64>() / v.len() as f64);
-    Ok(LimitMarker {
-        per_rotor_g: l.thrust_g,
-        uncertainty_g: l.uncertainty_g,
-        supply_voltage_v: v,
-        note: Some(format!("from {}", path.display())),
-    })
-}
-
 /// Runs the subcommand.
 pub fn run(args: Args) -> Result<()> {
     let written = write(&args)?;
@@ -197,178 +123,38 @@ pub fn session_figures(
 }
 
 fn write(args: &Args) -> Result<Vec<String>> {
-    let params_path = params_path(&args.input);
-    let file = ParamsFile::load(&params_path)?;
-    let params = file
-        .to_params()
-        .with_context(|| format!("{} cannot drive the estimator", params_path.display()))?;
-    let inputs = locate(args, &params_path, &file);
-    let mut model = params.model(args.structure_mass, args.avionics_power);
-    let rotors = f64::from(model.platform.rotor_count);
-    let mut provenance = vec![(
-        "parameters".to_owned(),
-        format!(
-            "{} (written {} by {}; fitted from {}, SHA-256 {})",
-            params_path.display(),
-            file.provenance.created,
-            file.provenance.tool,
-            file.provenance.input_file,
-            file.provenance.input_sha256
-        ),
-    )];
-
-    let mut thrust_limit = params.thrust_limit.map(LimitMarker::from);
-    if let Some(l) = args.thrust_limit {
-        model.thrust_limit_kg = Some(l);
-        thrust_limit = Some(LimitMarker {
-            per_rotor_g: l * 1000.0 / rotors,
-            uncertainty_g: 0.0,
-            supply_voltage_v: None,
-            note: Some("given with --thrust-limit".to_owned()),
-        });
-    } else if let (None, Some(path)) = (&thrust_limit, &inputs.limit) {
-        let marker = limit_from_sweep(path)?;
-        model.thrust_limit_kg = Some(marker.per_rotor_g * rotors / 1000.0);
-        thrust_limit = Some(marker);
+    if args.plan.is_some() && args.battery_mass.is_none() && args.catalogue.is_none() {
+        anyhow::bail!(
+            "--plan needs a battery: give --battery-mass and --battery-energy-density, or a --catalogue with a pack within the payload limit"
+        );
     }
-    model.validate()?;
-    let payload = Payload {
-        mass_kg: args.payload_mass,
-        power_w: args.payload_power,
-    };
-
-    let sweep = match &inputs.sweep {
-        Some(path) => {
-            let (t, sha) = read(path, "sweep")?;
-            provenance.push((
-                "sweep".into(),
-                format!("{} (SHA-256 {sha})", path.display()),
-            ));
-            Some(Sweep::from_table(&t, &path.display().to_string())?)
-        }
-        None => {
-            provenance.push((
-                "sweep".into(),
-                "not found: Fig. 3 shows the fitted curve alone".into(),
-            ));
-            None
-        }
-    };
-    if let Some(path) = &inputs.limit {
-        let (_, sha) = read(path, "limit sweep")?;
-        provenance.push((
-            "limit sweep".into(),
-            format!("{} (SHA-256 {sha})", path.display()),
-        ));
-    }
-
-    let mut catalogue = Vec::new();
-    if let Some(path) = &args.catalogue {
-        let (t, sha) = read(path, "battery catalogue")?;
-        provenance.push((
-            "catalogue".into(),
-            format!("{} (SHA-256 {sha})", path.display()),
-        ));
-        for pack in t.catalogue()? {
-            catalogue.push(NamedBattery::from_pack(&pack)?);
-        }
-    }
-    let flights = match &args.flights {
-        Some(path) => {
-            let (t, sha) = read(path, "measured flights")?;
-            provenance.push((
-                "flights".into(),
-                format!("{} (SHA-256 {sha})", path.display()),
-            ));
-            MeasuredFlight::from_table(&t)?
-        }
-        None => Vec::new(),
-    };
-
-    let given = match (args.battery_mass, args.battery_energy_density) {
-        (Some(m), Some(d)) => Some(NamedBattery {
-            name: format!("battery {m} kg, {d} Wh/kg"),
-            battery: Battery::from_density(m, d)?,
-        }),
-        _ => None,
-    };
-    // Feasible catalogue packs, best first.
-    let ranked: Vec<NamedBattery> = if catalogue.is_empty() {
-        Vec::new()
-    } else {
-        reports::CatalogueFigure::rank(&model, &payload, &catalogue)?
-            .ranking
-            .into_iter()
-            .filter(|r| !r.over_payload_limit)
-            .map(|r| r.battery)
-            .collect()
-    };
-    // Fig. 6: the given battery and the packs flown, else the two best packs.
-    let mut study: Vec<NamedBattery> = given.iter().cloned().collect();
-    let flown: Vec<NamedBattery> = catalogue
-        .iter()
-        .filter(|b| flights.iter().any(|f| f.matches(&b.name)))
-        .cloned()
-        .collect();
-    if !flown.is_empty() {
-        study.extend(flown);
-    } else if study.is_empty() {
-        study.extend(ranked.iter().take(2).cloned());
-    }
-
-    let mission = match &args.plan {
-        None => None,
-        Some(text) => {
-            let segments = estimator::plan::parse_plan(text).context("--plan")?;
-            let Some(battery) = given.clone().or_else(|| ranked.first().cloned()) else {
-                bail!(
-                    "--plan needs a battery: give --battery-mass and --battery-energy-density, or a --catalogue with a pack within the payload limit"
-                );
-            };
-            Some(MissionInput {
-                plan: text.clone(),
-                segments,
-                battery,
-                options: MissionOptions {
-                    eq8: match args.eq8 {
-                        Eq8::Consistent => Eq8Form::Consistent,
-                        Eq8::Printed => Eq8Form::PrintedHours,
-                    },
-                    ..Default::default()
-                },
-            })
-        }
-    };
-    provenance.push((
-        "report".into(),
-        format!(
+    let files = reports::session::write_session_report(&reports::session::SessionReport {
+        input: args.input.clone(),
+        output: args.output.clone(),
+        sweep: args.sweep.clone(),
+        catalogue: args.catalogue.clone(),
+        plan: args.plan.clone(),
+        flights: args.flights.clone(),
+        structure_mass_kg: args.structure_mass,
+        avionics_power_w: args.avionics_power,
+        payload: Payload {
+            mass_kg: args.payload_mass,
+            power_w: args.payload_power,
+        },
+        thrust_limit_kg: args.thrust_limit,
+        energy_density_wh_per_kg: args.energy_density,
+        battery: args.battery_mass.zip(args.battery_energy_density),
+        payload_powers_w: args.payload_powers.clone(),
+        eq8: match args.eq8 {
+            Eq8::Consistent => Eq8Form::Consistent,
+            Eq8::Printed => Eq8Form::PrintedHours,
+        },
+        written_by: format!(
             "written {} by hoverbench {}",
             jiff::Timestamp::now(),
             env!("CARGO_PKG_VERSION")
         ),
-    ));
-
-    let input = ReportInput {
-        title: format!("hoverbench report: {}", args.input.display()),
-        model,
-        payload,
-        sweep,
-        thrust_limit,
-        energy_density_wh_per_kg: Some(
-            args.energy_density
-                .unwrap_or(paper::FIG4_ENERGY_DENSITY_WH_PER_KG),
-        ),
-        catalogue,
-        payload_study: Some(PayloadStudy {
-            batteries: study,
-            payload_powers_w: args.payload_powers.clone(),
-        }),
-        flights,
-        mission,
-        comparisons: Vec::new(),
-        provenance,
-    };
-    let files = reports::write_report(&input, &args.output)?;
+    })?;
     Ok(files
         .paths()
         .iter()
