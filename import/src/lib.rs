@@ -117,6 +117,21 @@ pub enum ImportError {
         /// The file.
         source_name: String,
     },
+    /// Electrical power cannot be had from the log.
+    #[error(
+        "{source_name}: {}",
+        if *has_current {
+            "no voltage column, so electrical power cannot be computed. Give --volts V to assume a constant supply voltage, or fit another pair of columns with --x/--y"
+        } else {
+            "neither power nor voltage and current are logged: electrical power cannot be computed; name the columns with --power or --voltage/--current"
+        }
+    )]
+    NoPower {
+        /// The file.
+        source_name: String,
+        /// Whether current is logged (then an assumed voltage would do).
+        has_current: bool,
+    },
     /// A `valid` cell that is neither true nor false.
     #[error("{source_name}, line {line}: the valid column holds {value:?}; use true/false or 1/0")]
     BadFlag {

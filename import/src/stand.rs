@@ -36,6 +36,28 @@ pub struct ColumnMap {
     pub time: Option<String>,
 }
 
+/// Where a log's electrical power comes from.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PowerSource {
+    /// A logged power column.
+    Logged,
+    /// Logged voltage × logged current.
+    VoltageTimesCurrent,
+    /// An assumed constant supply voltage × logged current (the log has no voltage).
+    AssumedVoltage(f64),
+}
+
+impl PowerSource {
+    /// How the power was obtained, for a column label.
+    pub fn label(&self) -> String {
+        match self {
+            Self::Logged => "power_w".into(),
+            Self::VoltageTimesCurrent => "power_w = voltage × current".into(),
+            Self::AssumedVoltage(v) => format!("power_w = {v} V (assumed) × current"),
+        }
+    }
+}
+
 /// Which kind of log the columns were recognised as.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum LogKind {
@@ -64,6 +86,17 @@ fn find(table: &Table, names: &[&str]) -> Option<String> {
         }
     }
     None
+}
+
+impl LogKind {
+    /// The kind in words.
+    pub fn describe(self) -> &'static str {
+        match self {
+            LogKind::Hoverbench => "hoverbench sweep",
+            LogKind::Tyto => "Tyto RCbenchmark / Flight Stand export",
+            LogKind::Generic => "generic stand log",
+        }
+    }
 }
 
 impl ColumnMap {
@@ -422,6 +455,8 @@ pub struct StandLog {
     pub comments: Vec<String>,
     /// The file's bytes (for provenance hashes).
     pub bytes: Vec<u8>,
+    /// The file's name, for messages.
+    pub source_name: String,
 }
 
 impl StandLog {
@@ -493,6 +528,7 @@ impl StandLog {
             skipped_invalid: m.skipped_invalid,
             comments: table.comments.clone(),
             bytes,
+            source_name: name.to_owned(),
         })
     }
 
@@ -504,6 +540,33 @@ impl StandLog {
     /// A per-step quantity, if every step has it.
     pub fn column(&self, f: impl Fn(&Step) -> Option<f64>) -> Option<Vec<f64>> {
         self.steps.iter().map(f).collect()
+    }
+
+    /// Electrical power of every step: logged, else voltage × current, else — with
+    /// `assumed_voltage_v` — that voltage × current. A log with none of these is an error that
+    /// says what would make it work.
+    pub fn power_w(
+        &self,
+        assumed_voltage_v: Option<f64>,
+    ) -> Result<(Vec<f64>, PowerSource), ImportError> {
+        if let Some(p) = self.column(|s| s.power_w) {
+            let src = if self.power_logged {
+                PowerSource::Logged
+            } else {
+                PowerSource::VoltageTimesCurrent
+            };
+            return Ok((p, src));
+        }
+        match (self.column(|s| s.current_a), assumed_voltage_v) {
+            (Some(i), Some(v)) => Ok((
+                i.iter().map(|i| i * v).collect(),
+                PowerSource::AssumedVoltage(v),
+            )),
+            (current, _) => Err(ImportError::NoPower {
+                source_name: self.source_name.clone(),
+                has_current: current.is_some(),
+            }),
+        }
     }
 
     /// Mean supply voltage over the steps, if logged.

@@ -142,50 +142,19 @@ fn stand_data(args: &Args) -> Result<Data> {
     let log = StandLog::read(&args.file, &args.stand.options())?;
     let volts = positive_volts(args.volts)?;
     let mut notes = log.notes.clone();
-    let (power, y_label) = match (
-        log.column(|s| s.power_w),
-        volts,
-        log.column(|s| s.current_a),
-    ) {
-        (Some(p), _, _) => (
-            p,
-            if log.power_logged {
-                "power_w"
-            } else {
-                "power_w = voltage × current"
-            },
-        ),
-        (None, Some(v), Some(i)) => {
-            notes.push(format!(
-                "no voltage logged: power taken as {v} V (--volts) × current"
-            ));
-            (
-                i.iter().map(|i| i * v).collect(),
-                "power_w = --volts × current",
-            )
-        }
-        (None, _, Some(_)) => bail!(
-            "{}: no voltage column, so electrical power cannot be computed. Give --volts V to \
-             assume a constant supply voltage, or fit another pair of columns with --x/--y",
-            args.file.display()
-        ),
-        (None, _, None) => bail!(
-            "{}: neither power nor voltage and current are logged: electrical power cannot be \
-             computed; name the columns with --power or --voltage/--current",
-            args.file.display()
-        ),
-    };
+    let (power, source) = log.power_w(volts)?;
+    if let import::stand::PowerSource::AssumedVoltage(v) = source {
+        notes.push(format!(
+            "no voltage logged: power taken as {v} V (--volts) × current"
+        ));
+    }
     Ok(Data {
         x: log.thrust_g(),
         y: power,
         x_name: "thrust_g".into(),
         y_name: "power_w".into(),
-        y_label: y_label.into(),
-        kind: match log.kind {
-            import::stand::LogKind::Hoverbench => "hoverbench sweep",
-            import::stand::LogKind::Tyto => "Tyto RCbenchmark / Flight Stand export",
-            import::stand::LogKind::Generic => "generic stand log",
-        },
+        y_label: source.label(),
+        kind: log.kind.describe(),
         notes,
         skipped_invalid: log.skipped_invalid,
         supply_voltage_v: volts.or_else(|| log.mean_voltage_v()),

@@ -3,7 +3,7 @@
 use std::path::PathBuf;
 
 use anyhow::Result;
-use import::stand::{LogKind, StandLog, steps_to_csv};
+use import::stand::{StandLog, steps_to_csv};
 
 use crate::output::{self, StandArgs, Table};
 
@@ -51,11 +51,7 @@ struct Report {
 /// Runs the subcommand.
 pub fn run(args: Args) -> Result<()> {
     let log = StandLog::read(&args.file, &args.stand.options())?;
-    let kind = match log.kind {
-        LogKind::Hoverbench => "hoverbench sweep",
-        LogKind::Tyto => "Tyto RCbenchmark / Flight Stand export",
-        LogKind::Generic => "generic stand log",
-    };
+    let kind = log.kind.describe();
     let c = &log.columns;
     let columns: Vec<(String, Option<String>)> = [
         ("thrust", &c.thrust),
