@@ -488,6 +488,9 @@ fn battery_params(
     }
 }
 
+/// The range ArduPilot accepts for `MOT_THST_HOVER`.
+pub const ARDUPILOT_HOVER_RANGE: (f64, f64) = (0.125, 0.6875);
+
 /// ArduPilot parameters (`NAME,VALUE` `.param`).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ArduPilotParams(pub Vec<Param>);
@@ -563,11 +566,20 @@ impl ArduPilotParams {
             },
         ];
         if let Some((h, src)) = hover(input)? {
+            // ArduPilot keeps the hover throttle within this range and clamps what lies outside.
+            let (lo, hi) = ARDUPILOT_HOVER_RANGE;
+            let source = if (lo..=hi).contains(&h) {
+                src
+            } else {
+                format!(
+                    "{src}; outside ArduPilot's accepted {lo}–{hi}: it will clamp it, so check the propulsion sizing"
+                )
+            };
             p.push(Param {
                 name: "MOT_THST_HOVER",
                 value: h,
                 mav_type: MAV_REAL32,
-                source: src,
+                source,
             });
         }
         if let Some(b) = input.battery {
@@ -751,6 +763,19 @@ mod tests {
         let f = fit_expo_with_voltage_scaling(&sweeps, 12.6).unwrap();
         assert!((f.expo - 0.55).abs() < 1e-9);
         assert!((f.max_thrust_g - 800.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn hover_outside_ardupilots_range_is_flagged() {
+        let mut i = input();
+        i.takeoff_mass_kg = Some(0.15);
+        let text = ArduPilotParams::new(&i, SpinRange::default())
+            .unwrap()
+            .render();
+        assert!(
+            text.contains("outside ArduPilot's accepted 0.125–0.6875"),
+            "{text}"
+        );
     }
 
     #[test]
