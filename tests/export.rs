@@ -161,3 +161,31 @@ fn export_without_throttle_says_so() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("no throttle column"));
 }
+
+#[test]
+fn ardupilot_expo_across_the_nominal_and_limit_sweeps() {
+    let out = ok(&[
+        "export",
+        "ardupilot",
+        "--sweep",
+        &data("paper-sweep.csv"),
+        "--also-sweep",
+        &data("paper-limit-9v.csv"),
+        "--cells",
+        "3",
+        "--capacity",
+        "2100",
+    ]);
+    assert!(
+        out.contains("through ArduPilot's battery-voltage scaling"),
+        "{out}"
+    );
+    let expo: f64 = out
+        .lines()
+        .find_map(|l| l.strip_prefix("MOT_THST_EXPO,"))
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!((0.0..=1.0).contains(&expo));
+    assert!(out.contains("MOT_BAT_VOLT_MAX,12.600000"));
+}

@@ -244,8 +244,19 @@ pub fn run(args: Args) -> Result<()> {
                 autopilot::fit_expo_with_voltage_scaling(&sweeps, v_max)
                     .context("fitting MOT_THST_EXPO across the sweeps' voltages")?
             };
+            let mut input = s.input(a, expo);
+            if !ar.also.is_empty() {
+                let names: Vec<String> = std::iter::once(&a.sweep)
+                    .chain(&ar.also)
+                    .map(|p| p.display().to_string())
+                    .collect();
+                input.sweep_name = format!(
+                    "{} through ArduPilot's battery-voltage scaling",
+                    names.join(" + ")
+                );
+            }
             emit(
-                &ArduPilotParams::new(&s.input(a, expo), spin)?.render(),
+                &ArduPilotParams::new(&input, spin)?.render(),
                 a.output.as_ref(),
             )
         }
