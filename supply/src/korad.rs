@@ -139,22 +139,15 @@ impl<T: Transport> KoradSupply<T> {
         check: impl Fn(&mut Self) -> Result<Option<String>, SupplyError>,
     ) -> Result<(), SupplyError> {
         let attempts = self.config.timing.retries.saturating_add(1);
-        let mut readback = String::new();
-        for _ in 0..attempts {
-            self.link.send(command, b"")?;
-            if !self.config.verify_settings {
-                return Ok(());
-            }
-            match check(self)? {
-                None => return Ok(()),
-                Some(r) => readback = r,
-            }
-        }
-        Err(SupplyError::NotApplied {
-            command: command.to_owned(),
-            readback,
+        let verify = self.config.verify_settings;
+        crate::supply::send_until_applied(
+            self,
+            command,
             attempts,
-        })
+            verify,
+            |d| d.link.send(command, b""),
+            check,
+        )
     }
 }
 

@@ -126,3 +126,32 @@ impl<S: Supply + ?Sized> Supply for Box<S> {
         (**self).apply(voltage_v, current_limit_a)
     }
 }
+
+/// Sends a setting with `send`, then (when `verify`) reads it back with `check` — `None` when it
+/// took, else what was read — and sends it again until it took, at most `attempts` times.
+/// Shared by the instrument drivers.
+pub(crate) fn send_until_applied<D>(
+    dev: &mut D,
+    command: &str,
+    attempts: u32,
+    verify: bool,
+    send: impl Fn(&mut D) -> Result<(), SupplyError>,
+    check: impl Fn(&mut D) -> Result<Option<String>, SupplyError>,
+) -> Result<(), SupplyError> {
+    let mut readback = String::new();
+    for _ in 0..attempts {
+        send(dev)?;
+        if !verify {
+            return Ok(());
+        }
+        match check(dev)? {
+            None => return Ok(()),
+            Some(r) => readback = r,
+        }
+    }
+    Err(SupplyError::NotApplied {
+        command: command.to_owned(),
+        readback,
+        attempts,
+    })
+}
