@@ -13,7 +13,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::{Decoded, End, FlightLogError, FlightMeta, Samples};
+use crate::{Decoded, End, FlightLogError, FlightMeta, MetaLayer, MetaSource, Samples};
 
 /// Header of a `Real_path_N.csv`.
 pub const HEADER: &str = "x_estimate,y_estimate,z_estimate,battery_voltage";
@@ -82,7 +82,18 @@ pub fn platform_defaults() -> FlightMeta {
         air_density_kg_m3: None,
         cutoff_voltage_v: Some(CUTOFF_VOLTAGE_V),
         end: None::<End>,
+        ..FlightMeta::default()
     }
+}
+
+/// [`platform_defaults`] as a metadata layer ([`MetaSource::Default`]).
+pub fn platform_layer() -> MetaLayer {
+    MetaLayer::new(
+        platform_defaults(),
+        MetaSource::Default {
+            what: "Crazyflie 2.0 platform".to_owned(),
+        },
+    )
 }
 
 /// The first non-blank, non-comment line of a text, without a byte-order mark or line ending.
@@ -244,6 +255,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
         samples,
         landed: None,
         warnings: Vec::new(),
+        info: crate::LogInfo::default(),
     })
 }
 

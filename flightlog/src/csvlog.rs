@@ -159,6 +159,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
         samples,
         landed: None,
         warnings,
+        info: crate::LogInfo::default(),
     })
 }
 

@@ -20,7 +20,8 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use crate::{Decoded, FlightLogError, Record, Samples};
+use crate::battery::{self, Track};
+use crate::{Decoded, FlightLogError, LogInfo, Record, Row, Samples, Vehicle, VehicleKind};
 
 /// The two bytes that start every message.
 pub const MAGIC: [u8; 2] = [0xA3, 0x95];
@@ -284,18 +285,83 @@ impl<'a> DataFlash<'a> {
     /// Values of numeric fields of one message type, one row per message: `(byte offset,
     /// values)`, keeping the lowest instance when the type has an `Instance`/`Inst`/`I` field.
     /// `Ok(None)` when there are no such messages; a missing field is `NaN` when `required` is
-    /// false, else an error.
+    /// false, else an error. (See [`DataFlash::rows`] for any instance, with `None` for a
+    /// missing field.)
     pub fn columns(
         &self,
         name: &str,
         fields: &[(&str, bool)],
         path: &Path,
     ) -> Result<Option<Vec<Record>>, FlightLogError> {
-        let Some(format) = self.format(name) else {
+        if !self.has(name) {
             return Ok(None);
+        }
+        let instance = self.instances(name).first().copied();
+        Ok(Some(
+            self.rows(name, instance, fields, path)?
+                .into_iter()
+                .map(|r| Record {
+                    offset: r.offset,
+                    values: r
+                        .values
+                        .into_iter()
+                        .map(|v| v.unwrap_or(f64::NAN))
+                        .collect(),
+                })
+                .collect(),
+        ))
+    }
+
+    /// Whether the log has messages of a type.
+    pub fn has(&self, name: &str) -> bool {
+        self.format(name)
+            .is_some_and(|f| self.messages.contains_key(&f.msg_type))
+    }
+
+    /// The label of a type's instance field (`Instance`, `Inst` or `I`), if it has one.
+    fn instance_slot(&self, name: &str) -> Option<(usize, u8)> {
+        let format = self.format(name)?;
+        ["Instance", "Inst", "I"]
+            .iter()
+            .find_map(|l| format.field(l))
+    }
+
+    /// The instances of a message type that have messages, ascending; empty when the type has
+    /// no instance field (or no messages).
+    pub fn instances(&self, name: &str) -> Vec<u8> {
+        let (Some(format), Some(slot)) = (self.format(name), self.instance_slot(name)) else {
+            return Vec::new();
         };
         let Some(messages) = self.messages.get(&format.msg_type) else {
-            return Ok(None);
+            return Vec::new();
+        };
+        let mut v: Vec<u8> = messages
+            .iter()
+            .filter_map(|(_, p)| p.get(slot.0..).and_then(|b| decode_field(slot.1, b)))
+            .filter(|v| (0.0..=255.0).contains(v))
+            .map(|v| v as u8)
+            .collect();
+        v.sort_unstable();
+        v.dedup();
+        v
+    }
+
+    /// Values of numeric fields of one message type, one row per message, only the messages
+    /// of `instance` when given and the type has an instance field. Empty when there are no
+    /// such messages; a field the format lacks (or holds text) is `None` when `required` is
+    /// false, else an error.
+    pub fn rows(
+        &self,
+        name: &str,
+        instance: Option<u8>,
+        fields: &[(&str, bool)],
+        path: &Path,
+    ) -> Result<Vec<Row>, FlightLogError> {
+        let Some(format) = self.format(name) else {
+            return Ok(Vec::new());
+        };
+        let Some(messages) = self.messages.get(&format.msg_type) else {
+            return Ok(Vec::new());
         };
         let fail = |offset: u64, field: &str, message: String| FlightLogError::Binary {
             path: path.to_owned(),
@@ -323,41 +389,81 @@ impl<'a> DataFlash<'a> {
             }
             layout.push(found);
         }
-        let instance = ["Instance", "Inst", "I"]
-            .iter()
-            .find_map(|l| format.field(l));
+        let slot = self.instance_slot(name);
         let value = |payload: &[u8], (off, c): (usize, u8)| {
             payload.get(off..).and_then(|b| decode_field(c, b))
         };
-        let wanted = instance.and_then(|slot| {
-            messages
-                .iter()
-                .filter_map(|(_, p)| value(p, slot))
-                .min_by(f64::total_cmp)
-        });
         let mut rows = Vec::with_capacity(messages.len());
         for &(offset, payload) in messages {
-            if let (Some(slot), Some(w)) = (instance, wanted)
-                && value(payload, slot) != Some(w)
+            if let (Some(slot), Some(w)) = (slot, instance)
+                && value(payload, slot) != Some(f64::from(w))
             {
                 continue;
             }
             let mut values = Vec::with_capacity(fields.len());
-            for (k, slot) in layout.iter().enumerate() {
-                values.push(match slot {
-                    None => f64::NAN,
-                    Some(s) => value(payload, *s).ok_or_else(|| {
+            for (k, s) in layout.iter().enumerate() {
+                values.push(match s {
+                    None => None,
+                    Some(s) => Some(value(payload, *s).ok_or_else(|| {
                         fail(offset, fields[k].0, "field beyond the message".to_owned())
-                    })?,
+                    })?),
                 });
             }
-            rows.push(Record { offset, values });
+            rows.push(Row { offset, values });
         }
-        Ok(Some(rows))
+        Ok(rows)
     }
 
-    /// Time of each message of a type, µs, from `TimeUS` or `TimeMS`.
-    fn time_field(&self, name: &str) -> Option<(&'static str, f64)> {
+    /// The text of a `char[n]` field (`n`, `N`, `Z`) of every message of a type, in file
+    /// order; empty when the type or field is absent.
+    pub fn texts(&self, name: &str, label: &str) -> Vec<String> {
+        let Some(format) = self.format(name) else {
+            return Vec::new();
+        };
+        let Some((off, c)) = format.field(label) else {
+            return Vec::new();
+        };
+        let Some(size) = field_size(c).filter(|_| matches!(c, b'n' | b'N' | b'Z')) else {
+            return Vec::new();
+        };
+        self.messages
+            .get(&format.msg_type)
+            .map(|m| {
+                m.iter()
+                    .filter_map(|(_, p)| p.get(off..off + size).map(text))
+                    .collect()
+            })
+            .unwrap_or_default()
+    }
+
+    /// Parameters (`PARM` messages, `Name` and `Value`): the first value of each.
+    pub fn parameters(&self) -> HashMap<String, f64> {
+        let mut out = HashMap::new();
+        let Some(format) = self.format("PARM") else {
+            return out;
+        };
+        let (Some((noff, nc)), Some((voff, vc))) = (format.field("Name"), format.field("Value"))
+        else {
+            return out;
+        };
+        let Some(nsize) = field_size(nc) else {
+            return out;
+        };
+        for (_, p) in self.messages.get(&format.msg_type).into_iter().flatten() {
+            if let (Some(n), Some(v)) = (
+                p.get(noff..noff + nsize).map(text),
+                p.get(voff..).and_then(|b| decode_field(vc, b)),
+            ) && !n.is_empty()
+            {
+                out.entry(n).or_insert(v);
+            }
+        }
+        out
+    }
+
+    /// The time field of a message type and its scale to seconds: `("TimeUS", 1e-6)` or
+    /// `("TimeMS", 1e-3)`.
+    pub fn time_field(&self, name: &str) -> Option<(&'static str, f64)> {
         let format = self.format(name)?;
         if format.field("TimeUS").is_some() {
             Some(("TimeUS", 1e-6))
@@ -369,91 +475,299 @@ impl<'a> DataFlash<'a> {
     }
 }
 
+/// Scale of a battery field to volts or amps: `0.01` for an integer field (ArduCopter 3.x
+/// `CURR.Volt` and `CURR.Curr` are centivolts and centiamps in `h`), 1 otherwise (`f`, and
+/// `c`/`C`, already scaled by [`decode_field`]).
+fn battery_scale(format: &MessageFormat, label: &str) -> f64 {
+    match format.field(label) {
+        Some((_, b'h' | b'H' | b'i' | b'I' | b'b' | b'B')) => 0.01,
+        _ => 1.0,
+    }
+}
+
+/// The battery tracks of a log: `BAT` per instance, `BAT2` (older firmware's second
+/// battery), then `CURR` (ArduCopter 3.x).
+fn battery_tracks(log: &DataFlash<'_>, path: &Path) -> Result<Vec<Track>, FlightLogError> {
+    let mut tracks = Vec::new();
+    for name in ["BAT", "BAT2", "CURR"] {
+        let Some(format) = log.format(name) else {
+            continue;
+        };
+        if !log.has(name) {
+            continue;
+        }
+        if let Some(problem) = &format.problem {
+            return Err(FlightLogError::Binary {
+                path: path.to_owned(),
+                offset: format.defined_at,
+                field: format!("{name}.FMT"),
+                message: problem.clone(),
+            });
+        }
+        let Some((time_label, time_scale)) = log.time_field(name) else {
+            return Err(FlightLogError::MissingData {
+                path: path.to_owned(),
+                field: format!("{name}.TimeUS"),
+                message: format!(
+                    "{name} messages have neither a TimeUS nor a TimeMS field (labels: {})",
+                    format.labels.join(",")
+                ),
+            });
+        };
+        let (v_scale, i_scale) = (battery_scale(format, "Volt"), battery_scale(format, "Curr"));
+        let instances: Vec<Option<u8>> = match log.instances(name) {
+            v if v.is_empty() => vec![None],
+            v => v.into_iter().map(Some).collect(),
+        };
+        for instance in instances {
+            let rows = log.rows(
+                name,
+                instance,
+                &[
+                    (time_label, true),
+                    ("Volt", true),
+                    ("Curr", false),
+                    ("RemPct", false),
+                ],
+                path,
+            )?;
+            if rows.is_empty() {
+                continue;
+            }
+            let col = |k: usize| rows.iter().map(move |r| r.values[k]);
+            let has_remaining = rows.first().is_some_and(|r| r.values[3].is_some());
+            tracks.push(Track {
+                name: match instance {
+                    Some(i) => format!("{name} instance {i}"),
+                    None => name.to_owned(),
+                },
+                offsets: rows.iter().map(|r| r.offset).collect(),
+                time_s: col(0).map(|t| t.unwrap_or(f64::NAN) * time_scale).collect(),
+                voltage_v: col(1).map(|v| v.unwrap_or(f64::NAN) * v_scale).collect(),
+                current_a: col(2).map(|c| c.map(|c| c * i_scale)).collect(),
+                connected: None,
+                remaining: has_remaining
+                    .then(|| col(3).map(|r| r.map_or(-1.0, |r| r / 100.0)).collect()),
+                warning: None,
+                cells: None,
+            });
+        }
+    }
+    Ok(tracks)
+}
+
+/// What ArduPilot firmware names a `FRAME_CLASS`.
+fn frame_class_name(class: u32) -> Option<(&'static str, VehicleKind)> {
+    Some(match class {
+        1 => ("quad", VehicleKind::Multirotor),
+        2 => ("hexa", VehicleKind::Multirotor),
+        3 => ("octa", VehicleKind::Multirotor),
+        4 => ("octaquad", VehicleKind::Multirotor),
+        5 => ("y6", VehicleKind::Multirotor),
+        6 => ("heli", VehicleKind::Helicopter),
+        7 => ("tri", VehicleKind::Multirotor),
+        8 => ("singlecopter", VehicleKind::Multirotor),
+        9 => ("coaxcopter", VehicleKind::Multirotor),
+        10 => ("bicopter", VehicleKind::Multirotor),
+        11 => ("heli_dual", VehicleKind::Helicopter),
+        12 => ("dodecahexa", VehicleKind::Multirotor),
+        13 => ("heli_quad", VehicleKind::Helicopter),
+        14 => ("deca", VehicleKind::Multirotor),
+        _ => return None,
+    })
+}
+
+/// The vehicle from the firmware banner (`ArduCopter V4.6.2`, `APM:Copter V3.3`), its frame
+/// (`FRAME_CLASS`, or the `Frame: QUAD` message of older firmware) and, for ArduPlane,
+/// `Q_ENABLE` (a quadplane is a VTOL).
+fn vehicle(
+    firmware: Option<&str>,
+    messages: &[String],
+    params: &HashMap<String, f64>,
+) -> (Option<Vehicle>, Option<String>) {
+    let Some(fw) = firmware else {
+        return (None, None);
+    };
+    let frame_msg = messages
+        .iter()
+        .find_map(|m| m.strip_prefix("Frame: "))
+        .map(|f| f.trim().to_ascii_lowercase());
+    let lower = fw.to_ascii_lowercase();
+    if lower.contains("copter") {
+        let class = params
+            .get("FRAME_CLASS")
+            .and_then(|&c| frame_class_name(c as u32).map(|n| (c as u32, n)));
+        match (class, frame_msg) {
+            (Some((c, (frame, kind))), _) => (
+                Some(Vehicle {
+                    kind,
+                    description: format!("{fw}, {frame} (FRAME_CLASS {c})"),
+                }),
+                Some(frame.to_owned()),
+            ),
+            (None, Some(frame)) => {
+                let kind = if frame.contains("heli") {
+                    VehicleKind::Helicopter
+                } else {
+                    VehicleKind::Multirotor
+                };
+                (
+                    Some(Vehicle {
+                        kind,
+                        description: format!("{fw}, {frame} (message \"Frame: …\")"),
+                    }),
+                    Some(frame),
+                )
+            }
+            (None, None) => (
+                Some(Vehicle {
+                    kind: VehicleKind::Multirotor,
+                    description: format!("{fw} (firmware banner)"),
+                }),
+                None,
+            ),
+        }
+    } else if lower.contains("plane") {
+        let q = params.get("Q_ENABLE").copied().unwrap_or(0.0);
+        let (kind, how) = if q >= 1.0 {
+            (VehicleKind::Vtol, "quadplane, Q_ENABLE 1")
+        } else {
+            (VehicleKind::FixedWing, "Q_ENABLE 0 or absent")
+        };
+        (
+            Some(Vehicle {
+                kind,
+                description: format!("{fw} ({how})"),
+            }),
+            None,
+        )
+    } else if lower.contains("rover") || lower.contains("sub") {
+        (
+            Some(Vehicle {
+                kind: VehicleKind::Rover,
+                description: format!("{fw} (firmware banner)"),
+            }),
+            None,
+        )
+    } else {
+        (None, None)
+    }
+}
+
 /// Parses a `.bin` into a flight's samples.
 pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError> {
     let log = DataFlash::parse(bytes, path)?;
     let mut warnings = log.warnings.clone();
-    let missing = |message: String| FlightLogError::MissingData {
-        path: path.to_owned(),
-        field: "BAT".to_owned(),
-        message,
+    let tracks = battery_tracks(&log, path)?;
+    let mut chosen = battery::choose(
+        path,
+        &tracks,
+        "BAT or CURR (battery voltage)",
+        &log.names().join(", "),
+    )?;
+    warnings.append(&mut chosen.warnings);
+    let t0 = chosen.t0_s;
+    let time_s = chosen.time_s.clone();
+    let time_label = log
+        .time_field(chosen.info.battery.split(' ').next().unwrap_or("BAT"))
+        .map_or("TimeUS", |(l, _)| l);
+    crate::check_time(
+        path,
+        &time_s,
+        &format!(
+            "{}.{time_label}",
+            chosen.info.battery.split(' ').next().unwrap_or("BAT")
+        ),
+        |i| format!("byte {}", chosen.offsets.get(i).copied().unwrap_or(0)),
+    )?;
+
+    // What the log says about itself.
+    let messages = log.texts("MSG", "Message");
+    let params = log.parameters();
+    let firmware = messages
+        .iter()
+        .find(|m| {
+            [
+                "ArduCopter",
+                "ArduPlane",
+                "ArduRover",
+                "ArduSub",
+                "APM:",
+                "Blimp",
+                "AntennaTracker",
+            ]
+            .iter()
+            .any(|p| m.starts_with(p))
+        })
+        .cloned();
+    let hardware = messages
+        .iter()
+        .find(|m| {
+            m.split(' ').count() == 4
+                && m.split(' ')
+                    .skip(1)
+                    .all(|w| w.chars().all(|c| c.is_ascii_hexdigit()))
+        })
+        .map(|m| m.split(' ').next().unwrap_or_default().to_owned());
+    let (vehicle, frame) = vehicle(firmware.as_deref(), &messages, &params);
+    let mut info = LogInfo {
+        firmware,
+        hardware,
+        ..LogInfo::default()
     };
-    if let Some(format) = log.format("BAT")
-        && let Some(problem) = &format.problem
-    {
-        return Err(FlightLogError::Binary {
-            path: path.to_owned(),
-            offset: format.defined_at,
-            field: "BAT.FMT".to_owned(),
-            message: problem.clone(),
+    let cells = estimate_cells_for(&chosen.voltage_v);
+    if let Some((c, origin)) = &cells {
+        info.set("cells", origin.clone(), |m| m.cells = Some(*c));
+    }
+    let p = |name: &str, ok: &dyn Fn(f64) -> bool| params.get(name).copied().filter(|&v| ok(v));
+    if let Some(v) = p("BATT_CAPACITY", &|v| v > 0.0) {
+        info.set("capacity_mah", "BATT_CAPACITY", |m| {
+            m.capacity_mah = Some(v)
         });
     }
-    let (time_label, time_scale) = log.time_field("BAT").ok_or_else(|| {
-        missing(format!(
-            "no BAT messages with a TimeUS field (messages: {})",
-            log.names().join(", ")
-        ))
-    })?;
-    let battery = log
-        .columns(
-            "BAT",
-            &[(time_label, true), ("Volt", true), ("Curr", false)],
-            path,
-        )?
-        .ok_or_else(|| {
-            missing(format!(
-                "no BAT messages (messages: {})",
-                log.names().join(", ")
-            ))
-        })?;
-    let mut offsets = Vec::new();
-    let mut stamps = Vec::new();
-    let mut voltage = Vec::new();
-    let mut current = Vec::new();
-    let mut dropped = 0usize;
-    for Record {
-        offset,
-        values: row,
-    } in &battery
-    {
-        if !(row[1].is_finite() && row[1] > 0.0) {
-            dropped += 1;
-            continue;
-        }
-        offsets.push(*offset);
-        stamps.push(row[0] * time_scale);
-        voltage.push(row[1]);
-        current.push(row[2]);
+    if let Some(v) = p("BATT_LOW_VOLT", &|v| v > 0.0) {
+        info.set("cutoff_voltage_v", "BATT_LOW_VOLT", |m| {
+            m.cutoff_voltage_v = Some(v);
+        });
     }
-    if dropped > 0 {
-        warnings.push(format!(
-            "{dropped} BAT sample(s) without a voltage (≤ 0 or not finite) dropped"
-        ));
+    if let Some(v) = p("BATT_ARM_VOLT", &|v| v > 0.0) {
+        info.set("arm_voltage_v", "BATT_ARM_VOLT", |m| {
+            m.arm_voltage_v = Some(v)
+        });
     }
-    let t0 = stamps.first().copied().unwrap_or(0.0);
-    let time_s: Vec<f64> = stamps.iter().map(|t| t - t0).collect();
-    crate::check_time(path, &time_s, &format!("BAT.{time_label}"), |i| {
-        format!("byte {}", offsets.get(i).copied().unwrap_or(0))
-    })?;
-    let current_a = current.iter().any(|c| c.is_finite()).then(|| {
-        current
-            .iter()
-            .map(|&c| if c.is_finite() { c } else { 0.0 })
-            .collect()
-    });
+    if let Some(v) = p("MOT_THST_HOVER", &|v| v > 0.0 && v <= 1.0) {
+        info.set("hover_throttle", "MOT_THST_HOVER", |m| {
+            m.hover_throttle = Some(v);
+        });
+    } else if let Some(v) = p("THR_MID", &|v| v > 0.0 && v <= 1000.0) {
+        info.set("hover_throttle", "THR_MID ÷ 1000", |m| {
+            m.hover_throttle = Some(v / 1000.0);
+        });
+    }
+    if let Some(v) = &vehicle {
+        info.set("vehicle", v.description.clone(), |m| {
+            m.vehicle = Some(v.kind)
+        });
+    }
+    if let (Some(f), Some(v)) = (frame, &vehicle) {
+        info.set("frame", v.description.clone(), |m| m.frame = Some(f));
+    }
+    info.derive_energy();
+    chosen.info.cells = cells;
+    info.vehicle = vehicle;
+    info.battery = Some(chosen.info.clone());
 
     // Altitude and throttle: CTUN, else BARO for altitude.
     let series = |name: &str, field: &str| -> Result<Option<Vec<f64>>, FlightLogError> {
         let Some((label, scale)) = log.time_field(name) else {
             return Ok(None);
         };
-        let Some(rows) = log.columns(name, &[(label, true), (field, false)], path)? else {
-            return Ok(None);
-        };
+        let instance = log.instances(name).first().copied();
+        let rows = log.rows(name, instance, &[(label, true), (field, false)], path)?;
         let (t, v): (Vec<f64>, Vec<f64>) = rows
             .iter()
-            .filter(|r| r.values[1].is_finite())
-            .map(|r| (r.values[0] * scale - t0, r.values[1]))
+            .filter_map(|r| Some((r.values[0]? * scale - t0, r.values[1]?)))
+            .filter(|(t, v)| t.is_finite() && v.is_finite())
             .unzip();
         Ok((!t.is_empty()).then(|| crate::resample::linear(&t, &v, &time_s)))
     };
@@ -461,19 +775,38 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
         Some(a) => Some(a),
         None => series("BARO", "Alt")?,
     };
-    let throttle = series("CTUN", "ThO")?;
+    // Throttle: CTUN.ThO (0–1) in current firmware; ArduCopter 3.x logs CTUN.ThrOut in 0–1000
+    // (ArduPlane's ThrOut is a percentage of another meaning: not read).
+    let copter = info
+        .firmware
+        .as_deref()
+        .is_some_and(|f| f.to_ascii_lowercase().contains("copter"));
+    let throttle = match series("CTUN", "ThO")? {
+        Some(t) => Some(t),
+        None if copter => {
+            series("CTUN", "ThrOut")?.map(|t| t.into_iter().map(|x| x / 1000.0).collect())
+        }
+        None => None,
+    };
     Ok(Decoded {
         samples: Samples {
             time_s,
-            voltage_v: voltage,
-            current_a,
+            voltage_v: chosen.voltage_v,
+            current_a: chosen.current_a,
             phase: None,
             altitude_m,
             throttle,
+            landed: None,
         },
         landed: None,
         warnings,
+        info,
     })
+}
+
+/// ArduPilot logs no cell count: estimated from the highest voltage.
+fn estimate_cells_for(voltage_v: &[f64]) -> Option<(u32, String)> {
+    battery::estimate_cells(voltage_v)
 }
 
 #[cfg(test)]

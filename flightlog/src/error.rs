@@ -15,6 +15,7 @@ pub enum FlightLogError {
         /// The file or folder.
         path: PathBuf,
         /// The cause.
+        #[source]
         error: std::io::Error,
     },
     /// Malformed CSV (unbalanced quotes, a row with another number of fields, bad UTF-8).
@@ -128,6 +129,15 @@ pub enum FlightLogError {
         /// Context.
         message: String,
     },
+    /// A log whose every battery was skipped: not connected, no voltage, or a voltage
+    /// implausible for its cell count.
+    #[error("{}: no usable battery: {}", path.display(), batteries.iter().map(ToString::to_string).collect::<Vec<_>>().join("; "))]
+    NoUsableBattery {
+        /// The file.
+        path: PathBuf,
+        /// Each battery of the log and why it was skipped.
+        batteries: Vec<crate::battery::SkippedBattery>,
+    },
     /// A file that is none of the formats this crate reads.
     #[error("{}: {message}", path.display())]
     UnknownFormat {
@@ -160,6 +170,7 @@ impl FlightLogError {
             | Self::Binary { path, .. }
             | Self::MissingData { path, .. }
             | Self::UnknownFormat { path, .. }
+            | Self::NoUsableBattery { path, .. }
             | Self::NoFlights { path } => path,
         }
     }

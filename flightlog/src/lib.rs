@@ -39,22 +39,32 @@
 //! # Ok::<(), flightlog::FlightLogError>(())
 //! ```
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
+pub mod battery;
 pub mod crazyflie;
 pub mod csvlog;
 pub mod dataflash;
 mod error;
+pub mod loginfo;
 pub mod meta;
 pub mod phase;
 mod resample;
 mod set;
+pub mod summary;
 pub mod ulog;
 
+pub use battery::{BatteryInfo, SkipReason, SkippedBattery};
 pub use error::FlightLogError;
-pub use meta::{End, FlightMeta};
-pub use phase::{InferenceMethod, InferenceSignals, Phase, PhaseFractions, PhaseSource};
-pub use set::{FlightSet, Skipped};
+pub use loginfo::{LogInfo, Vehicle, VehicleKind};
+pub use meta::{End, FlightMeta, MetaLayer, MetaSource, MetaValue};
+pub use phase::{
+    Capabilities, InferenceMethod, InferenceSignals, Phase, PhaseEvidence, PhaseFractions,
+    PhaseSource,
+};
+pub use set::{FlightSet, Skipped, natural_cmp};
+pub use summary::{FlightSummary, SetSummary};
 
 /// Longest gap allowed between two samples, s: a longer one is a hole in the log.
 pub const MAX_GAP_S: f64 = 5.0;
@@ -76,6 +86,8 @@ pub struct Samples {
     pub altitude_m: Option<Vec<f64>>,
     /// Throttle as logged (0–1 for DataFlash `CTUN.ThO`).
     pub throttle: Option<Vec<f64>>,
+    /// A land detector's verdict (PX4 `vehicle_land_detected.landed`), when logged.
+    pub landed: Option<Vec<bool>>,
 }
 
 impl Samples {
@@ -131,6 +143,7 @@ impl Samples {
             && self.phase.as_ref().is_none_or(|c| c.len() == n)
             && self.altitude_m.as_ref().is_none_or(|c| c.len() == n)
             && self.throttle.as_ref().is_none_or(|c| c.len() == n)
+            && self.landed.as_ref().is_none_or(|c| c.len() == n)
     }
 }
 
@@ -180,8 +193,13 @@ pub struct Flight {
     pub format: LogFormat,
     /// The samples.
     pub samples: Samples,
-    /// Metadata: platform defaults, then the folder's `flights.toml`, then the sidecar.
+    /// Metadata: platform defaults, then the log's own parameters, then the folder's
+    /// `flights.toml`, then the sidecar.
     pub meta: FlightMeta,
+    /// Every key of [`Flight::meta`] with its value and where it came from.
+    pub metadata: BTreeMap<String, MetaValue>,
+    /// What the log says about itself: firmware, vehicle, the battery read.
+    pub log: LogInfo,
     /// Whether the phases were logged, inferred (and how), or are absent.
     pub phase_source: PhaseSource,
     /// Planned waypoints (x, y, z), m, when the log comes with a plan (Crazyflie).
@@ -211,45 +229,101 @@ impl Flight {
             LogFormat::Ulog => ulog::parse(bytes, source)?,
             LogFormat::DataFlash => dataflash::parse(bytes, source)?,
         };
-        let meta = match format {
-            LogFormat::Crazyflie => crazyflie::platform_defaults(),
-            _ => FlightMeta::default(),
+        let below = match format {
+            LogFormat::Crazyflie => vec![crazyflie::platform_layer()],
+            _ => Vec::new(),
         };
-        Ok(Self::assemble(source, format, decoded, meta))
-    }
-
-    /// Builds the flight from decoded samples: infers phases when the log has none.
-    fn assemble(source: &Path, format: LogFormat, decoded: Decoded, meta: FlightMeta) -> Self {
         let Decoded {
             mut samples,
             landed,
             warnings,
+            info,
         } = decoded;
-        let phase_source = if samples.phase.is_some() {
-            PhaseSource::Logged
-        } else {
-            match phase::infer(phase::Signals {
-                time_s: &samples.time_s,
-                current_a: samples.current_a.as_deref(),
-                altitude_m: samples.altitude_m.as_deref(),
-                landed: landed.as_deref(),
-            }) {
-                Some((phases, source)) => {
-                    samples.phase = Some(phases);
-                    source
-                }
-                None => PhaseSource::None,
-            }
-        };
-        Self {
+        samples.landed = landed;
+        let mut flight = Self {
             name: flight_name(source),
             source: source.to_owned(),
             format,
             samples,
-            meta,
-            phase_source,
+            meta: FlightMeta::default(),
+            metadata: BTreeMap::new(),
+            log: info,
+            phase_source: PhaseSource::None,
             planned_waypoints_m: None,
             warnings,
+        };
+        flight.set_metadata(&below, &[]);
+        Ok(flight)
+    }
+
+    /// The log's own metadata as a layer ([`MetaSource::Log`], each key with its parameter).
+    pub fn log_layer(&self) -> MetaLayer {
+        MetaLayer {
+            meta: self.log.meta.clone(),
+            source: MetaSource::Log {
+                origin: "log".to_owned(),
+            },
+            origins: self.log.meta_origins.clone(),
+        }
+    }
+
+    /// Sets the metadata from layers below the log's own (platform defaults) and above it
+    /// (folder `flights.toml`, then sidecar), lowest first, and infers the phases again for
+    /// the vehicle they describe (unless the log has phases).
+    pub fn set_metadata(&mut self, below_log: &[MetaLayer], above_log: &[MetaLayer]) {
+        let mut layers = below_log.to_vec();
+        layers.push(self.log_layer());
+        layers.extend_from_slice(above_log);
+        let (meta, values) = FlightMeta::resolve(&layers);
+        self.meta = meta;
+        self.metadata = values;
+        self.infer_phases();
+    }
+
+    /// What the vehicle can do, from its metadata: perch (`perches = true`) and fly as a VTOL
+    /// (`vehicle = "vtol"`), each with its source.
+    pub fn capabilities(&self) -> Capabilities {
+        let why = |key: &str| {
+            self.metadata.get(key).map_or_else(String::new, |v| {
+                format!("{key} = {} from {}", v.value, v.source)
+            })
+        };
+        Capabilities {
+            perches: (self.meta.perches == Some(true)).then(|| why("perches")),
+            vtol: (self.meta.vehicle == Some(VehicleKind::Vtol)).then(|| why("vehicle")),
+        }
+    }
+
+    /// Infers the phases from the samples and [`Flight::capabilities`], unless they were
+    /// logged (a phase column).
+    pub fn infer_phases(&mut self) {
+        let logged = match &self.phase_source {
+            PhaseSource::Logged => true,
+            PhaseSource::None => self.samples.phase.is_some(),
+            PhaseSource::Inferred { .. } => false,
+        };
+        if logged {
+            self.phase_source = PhaseSource::Logged;
+            return;
+        }
+        let caps = self.capabilities();
+        match phase::infer_for(
+            phase::Signals {
+                time_s: &self.samples.time_s,
+                current_a: self.samples.current_a.as_deref(),
+                altitude_m: self.samples.altitude_m.as_deref(),
+                landed: self.samples.landed.as_deref(),
+            },
+            &caps,
+        ) {
+            Some((phases, source)) => {
+                self.samples.phase = Some(phases);
+                self.phase_source = source;
+            }
+            None => {
+                self.samples.phase = None;
+                self.phase_source = PhaseSource::None;
+            }
         }
     }
 }
@@ -264,12 +338,23 @@ pub struct Record {
     pub values: Vec<f64>,
 }
 
+/// One message of a binary log, reduced to the numeric fields asked for; `None` for a field
+/// the message's format lacks.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Row {
+    /// Byte offset of the message in the file.
+    pub offset: u64,
+    /// The fields' values, in the order asked for.
+    pub values: Vec<Option<f64>>,
+}
+
 /// What a format decoder hands over: samples, an optional land detector, warnings.
 #[derive(Debug, Default)]
 pub(crate) struct Decoded {
     pub(crate) samples: Samples,
     pub(crate) landed: Option<Vec<bool>>,
     pub(crate) warnings: Vec<String>,
+    pub(crate) info: LogInfo,
 }
 
 /// A log's name: its file name without extension.

@@ -3,7 +3,8 @@
 //! Both files have the same keys, all optional (see [`FlightMeta`]). Unknown keys, values of the
 //! wrong type and values out of range are errors naming the file, the line and the column or key.
 
-use std::path::Path;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
@@ -69,10 +70,33 @@ pub struct FlightMeta {
     /// How the flight ended: `cutoff` (a measured endurance) or `landed`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub end: Option<End>,
+    /// Battery capacity, mAh (PX4 `BAT*_CAPACITY`, ArduPilot `BATT_CAPACITY`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub capacity_mah: Option<f64>,
+    /// Voltage of the charged pack, V (PX4 `BAT*_V_CHARGED` × cells).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub charged_voltage_v: Option<f64>,
+    /// Lowest voltage at which the autopilot arms, V (ArduPilot `BATT_ARM_VOLT`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub arm_voltage_v: Option<f64>,
+    /// Throttle that hovers, 0–1 (PX4 `MPC_THR_HOVER`, ArduPilot `MOT_THST_HOVER`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hover_throttle: Option<f64>,
+    /// The kind of vehicle (`multirotor`, `helicopter`, `vtol`, `fixed_wing`, `rover`,
+    /// `other`); only a `vtol` has `transition` phases.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vehicle: Option<crate::VehicleKind>,
+    /// Frame (`quad`, `hexa`, …; ArduPilot `FRAME_CLASS`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frame: Option<String>,
+    /// Whether the robot perches (attaches to a ceiling or wall with its motors off): only
+    /// then are `attached` phases inferred.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub perches: Option<bool>,
 }
 
 /// Keys that must be positive, with their accessors, for validation.
-const POSITIVE_KEYS: [&str; 7] = [
+const POSITIVE_KEYS: [&str; 10] = [
     "structure_mass_kg",
     "battery_mass_kg",
     "battery_energy_density_wh_per_kg",
@@ -80,6 +104,9 @@ const POSITIVE_KEYS: [&str; 7] = [
     "air_density_kg_m3",
     "cutoff_voltage_v",
     "cells",
+    "capacity_mah",
+    "charged_voltage_v",
+    "arm_voltage_v",
 ];
 
 impl FlightMeta {
@@ -157,6 +184,13 @@ impl FlightMeta {
             air_density_kg_m3: self.air_density_kg_m3.or(defaults.air_density_kg_m3),
             cutoff_voltage_v: self.cutoff_voltage_v.or(defaults.cutoff_voltage_v),
             end: self.end.or(defaults.end),
+            capacity_mah: self.capacity_mah.or(defaults.capacity_mah),
+            charged_voltage_v: self.charged_voltage_v.or(defaults.charged_voltage_v),
+            arm_voltage_v: self.arm_voltage_v.or(defaults.arm_voltage_v),
+            hover_throttle: self.hover_throttle.or(defaults.hover_throttle),
+            vehicle: self.vehicle.or(defaults.vehicle),
+            frame: self.frame.clone().or_else(|| defaults.frame.clone()),
+            perches: self.perches.or(defaults.perches),
         }
     }
 
@@ -200,6 +234,9 @@ impl FlightMeta {
             self.air_density_kg_m3,
             self.cutoff_voltage_v,
             self.cells.map(f64::from),
+            self.capacity_mah,
+            self.charged_voltage_v,
+            self.arm_voltage_v,
         ];
         for (key, value) in POSITIVE_KEYS.iter().zip(positive) {
             if let Some(v) = value
@@ -220,6 +257,14 @@ impl FlightMeta {
                 return Err(fail(key, format!("{v} must be zero or more")));
             }
         }
+        if let Some(h) = self.hover_throttle
+            && !(h.is_finite() && h > 0.0 && h <= 1.0)
+        {
+            return Err(fail(
+                "hover_throttle",
+                format!("{h} is not a throttle in (0, 1]"),
+            ));
+        }
         if let Some(t) = self.ambient_temperature_c
             && !(t.is_finite() && t > -273.15)
         {
@@ -229,6 +274,121 @@ impl FlightMeta {
             ));
         }
         Ok(())
+    }
+}
+
+/// Where a metadata value came from.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum MetaSource {
+    /// Built-in defaults (a platform's, such as the Crazyflie dataset's).
+    Default {
+        /// Whose defaults.
+        what: String,
+    },
+    /// The log itself: a parameter or message field (or a value derived from them).
+    Log {
+        /// Which (`BAT1_N_CELLS`, `battery_status.cell_count`, `BATT_LOW_VOLT`).
+        origin: String,
+    },
+    /// The folder's `flights.toml`.
+    Folder {
+        /// The file.
+        path: PathBuf,
+    },
+    /// The flight's own `NAME.toml`.
+    Sidecar {
+        /// The file.
+        path: PathBuf,
+    },
+}
+
+impl std::fmt::Display for MetaSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Default { what } => write!(f, "default ({what})"),
+            Self::Log { origin } => write!(f, "log ({origin})"),
+            Self::Folder { path } => write!(f, "folder ({})", file_name(path)),
+            Self::Sidecar { path } => write!(f, "sidecar ({})", file_name(path)),
+        }
+    }
+}
+
+/// A file's name, for short messages.
+fn file_name(path: &Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
+}
+
+/// One metadata value with its source.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MetaValue {
+    /// The value, as it would be written in TOML.
+    pub value: toml::Value,
+    /// Where it came from.
+    pub source: MetaSource,
+}
+
+/// One layer of metadata: values and where they came from. For a [`MetaSource::Log`] layer,
+/// `origins` names each key's parameter.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MetaLayer {
+    /// The values this layer sets.
+    pub meta: FlightMeta,
+    /// Where they came from.
+    pub source: MetaSource,
+    /// Per key, a more precise origin inside a log (replaces `source`'s origin for that key).
+    pub origins: BTreeMap<String, String>,
+}
+
+impl MetaLayer {
+    /// A layer whose every value has the same source.
+    pub fn new(meta: FlightMeta, source: MetaSource) -> Self {
+        Self {
+            meta,
+            source,
+            origins: BTreeMap::new(),
+        }
+    }
+}
+
+impl FlightMeta {
+    /// The keys this metadata sets, each with its value as TOML.
+    pub fn entries(&self) -> BTreeMap<String, toml::Value> {
+        match toml::Value::try_from(self) {
+            Ok(toml::Value::Table(t)) => t.into_iter().collect(),
+            _ => BTreeMap::new(),
+        }
+    }
+
+    /// Merges layers (lowest first; each overrides those before it key by key, as
+    /// [`FlightMeta::merged_over`]) and says where each resulting value came from.
+    pub fn resolve(layers: &[MetaLayer]) -> (FlightMeta, BTreeMap<String, MetaValue>) {
+        let mut merged = FlightMeta::default();
+        let mut sources: BTreeMap<String, MetaSource> = BTreeMap::new();
+        for layer in layers {
+            merged = layer.meta.merged_over(&merged);
+            for key in layer.meta.entries().into_keys() {
+                let source = match (&layer.source, layer.origins.get(&key)) {
+                    (MetaSource::Log { .. }, Some(origin)) => MetaSource::Log {
+                        origin: origin.clone(),
+                    },
+                    (s, _) => s.clone(),
+                };
+                sources.insert(key, source);
+            }
+        }
+        let values = merged
+            .entries()
+            .into_iter()
+            .filter_map(|(key, value)| {
+                let source = sources.remove(&key)?;
+                Some((key, MetaValue { value, source }))
+            })
+            .collect();
+        (merged, values)
     }
 }
 

@@ -74,9 +74,11 @@ impl Phase {
             .find(|p| p.name().eq_ignore_ascii_case(t))
     }
 
-    /// Whether the motors carry the robot (hover, climb, descend).
+    /// Whether the rotors carry the robot: every phase but `ground` and `attached`. A
+    /// `transition` (a VTOL between hover and forward flight, or a take-off, landing,
+    /// attaching or detaching) is airborne and powered, so it counts as flying.
     pub fn is_flying(self) -> bool {
-        matches!(self, Phase::Hover | Phase::Climb | Phase::Descend)
+        !matches!(self, Phase::Ground | Phase::Attached)
     }
 }
 
@@ -183,6 +185,40 @@ pub struct InferenceMethod {
     pub smoothing_s: f64,
     /// Fraction of the samples in each phase.
     pub fractions: PhaseFractions,
+    /// For each phase found, what put samples in it.
+    #[serde(default)]
+    pub evidence: Vec<PhaseEvidence>,
+}
+
+/// Why samples were put in a phase.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PhaseEvidence {
+    /// The phase.
+    pub phase: Phase,
+    /// Fraction of the samples in it.
+    pub fraction: f64,
+    /// What put them there, in words.
+    pub evidence: String,
+}
+
+/// What a vehicle can do that phase inference must not assume: perch (`attached`) and fly
+/// as a VTOL (`transition`). Each is `Some(why it is known)` when the vehicle can.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct Capabilities {
+    /// The robot perches (e.g. `perches = true` in its metadata, and from where).
+    pub perches: Option<String>,
+    /// The vehicle is a VTOL (from the log's vehicle type, and which field).
+    pub vtol: Option<String>,
+}
+
+impl Capabilities {
+    /// Both capabilities, as [`infer`] assumes (the behaviour before vehicles were known).
+    pub fn all() -> Self {
+        Self {
+            perches: Some("assumed".to_owned()),
+            vtol: Some("assumed".to_owned()),
+        }
+    }
 }
 
 impl std::fmt::Display for InferenceMethod {
@@ -219,6 +255,10 @@ impl std::fmt::Display for InferenceMethod {
 
 /// Where a flight's phases come from.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[allow(
+    clippy::large_enum_variant,
+    reason = "one per flight; boxing would change the variant's public shape"
+)]
 pub enum PhaseSource {
     /// The log has a phase column.
     Logged,
@@ -246,9 +286,20 @@ pub struct Signals<'a> {
     pub landed: Option<&'a [bool]>,
 }
 
-/// Infers a phase for every sample; `None` when there is nothing to infer from (no current, no
-/// altitude, no land detector) or the signals' lengths differ from `time_s`.
+/// Infers a phase for every sample, assuming the vehicle may perch and may be a VTOL
+/// ([`Capabilities::all`]); see [`infer_for`].
 pub fn infer(signals: Signals<'_>) -> Option<(Vec<Phase>, PhaseSource)> {
+    infer_for(signals, &Capabilities::all())
+}
+
+/// Infers a phase for every sample of a vehicle with the given capabilities: `attached` only
+/// for a robot that perches, `transition` only for a VTOL. Motors off (by current) away from
+/// the ground on a vehicle that can do neither means the current has no idle level in the air,
+/// so those samples are classified by vertical speed like any flying sample; an idle period
+/// between flying periods without altitude is a landing. `None` when there is nothing to
+/// infer from (no current, no altitude, no land detector) or the signals' lengths differ from
+/// `time_s`.
+pub fn infer_for(signals: Signals<'_>, caps: &Capabilities) -> Option<(Vec<Phase>, PhaseSource)> {
     let n = signals.time_s.len();
     let fits = |len: Option<usize>| len.is_none_or(|l| l == n);
     if n == 0
@@ -298,6 +349,7 @@ pub fn infer(signals: Signals<'_>) -> Option<(Vec<Phase>, PhaseSource)> {
     });
 
     let mut phases = Vec::with_capacity(n);
+    let mut idle_airborne = 0usize;
     // Ground decided from altitude alone (motors on or unknown, no land detector): kept only in
     // runs that touch the start or the end of the log.
     let mut tentative = vec![false; n];
@@ -310,13 +362,27 @@ pub fn infer(signals: Signals<'_>) -> Option<(Vec<Phase>, PhaseSource)> {
                 let near_ceiling = alt[i] >= max - band && max - band > ground + band;
                 let still = speed[i].abs() <= VERTICAL_SPEED_THRESHOLD_M_S;
                 let on_ground = landed.unwrap_or(near_ground && still);
-                if !on {
-                    if on_ground || near_ground {
-                        Phase::Ground
-                    } else if near_ceiling {
-                        Phase::Attached
+                let by_speed = || {
+                    if speed[i] > VERTICAL_SPEED_THRESHOLD_M_S {
+                        Phase::Climb
+                    } else if speed[i] < -VERTICAL_SPEED_THRESHOLD_M_S {
+                        Phase::Descend
                     } else {
+                        Phase::Hover
+                    }
+                };
+                // Motors off: on the ground when either the smoothed or the raw altitude is.
+                let raw_near_ground = signals.altitude_m.is_some_and(|a| a[i] <= ground + band);
+                if !on {
+                    if on_ground || near_ground || raw_near_ground {
+                        Phase::Ground
+                    } else if near_ceiling && caps.perches.is_some() {
+                        Phase::Attached
+                    } else if caps.vtol.is_some() {
                         Phase::Transition
+                    } else {
+                        idle_airborne += 1;
+                        by_speed()
                     }
                 } else if on_ground {
                     tentative[i] = landed.is_none();
@@ -381,14 +447,26 @@ pub fn infer(signals: Signals<'_>) -> Option<(Vec<Phase>, PhaseSource)> {
                 Phase::Ground
             } else {
                 mid_runs += 1;
-                Phase::Attached
+                if caps.perches.is_some() {
+                    Phase::Attached
+                } else if caps.vtol.is_some() {
+                    Phase::Transition
+                } else {
+                    Phase::Ground
+                }
             };
             phases[start..i].fill(fill);
         }
         if mid_runs > 0 {
+            let taken = if caps.perches.is_some() {
+                "attached; without altitude a landing in between would look the same"
+            } else if caps.vtol.is_some() {
+                "transition (VTOL); without altitude a landing in between would look the same"
+            } else {
+                "landings (the vehicle neither perches nor is a VTOL)"
+            };
             notes.push(format!(
-                "{mid_runs} idle period(s) between flying periods taken as attached; without \
-                 altitude a landing in between would look the same"
+                "{mid_runs} idle period(s) between flying periods taken as {taken}"
             ));
         }
     }
@@ -409,7 +487,24 @@ pub fn infer(signals: Signals<'_>) -> Option<(Vec<Phase>, PhaseSource)> {
     if signals.current_a.is_none() {
         notes.push("no current: attachment to the ceiling cannot be detected".to_owned());
     }
+    if idle_airborne > 0 {
+        notes.push(format!(
+            "{idle_airborne} sample(s) with current below the idle/flying split away from the \
+             ground classified by vertical speed: the vehicle neither perches nor is a VTOL, \
+             so low current in the air is low-power flight, not motors off"
+        ));
+    }
+    let fractions = PhaseFractions::of(&phases);
+    let evidence = evidence(
+        &fractions,
+        caps,
+        signals_used,
+        split.map(|s| s.threshold),
+        altitude_info,
+        idle_airborne > 0,
+    );
     let method = InferenceMethod {
+        evidence,
         signals: signals_used,
         current_split_a: split.map(|s| s.threshold),
         idle_current_a: split.map(|s| s.low_mean),
@@ -419,9 +514,76 @@ pub fn infer(signals: Signals<'_>) -> Option<(Vec<Phase>, PhaseSource)> {
         band_m: altitude_info.map(|a| a.2),
         vertical_speed_threshold_m_s: vertical.as_ref().map(|_| VERTICAL_SPEED_THRESHOLD_M_S),
         smoothing_s: SMOOTHING_S,
-        fractions: PhaseFractions::of(&phases),
+        fractions,
     };
     Some((phases, PhaseSource::Inferred { method, notes }))
+}
+
+/// What put samples in each phase found, in words.
+fn evidence(
+    fractions: &PhaseFractions,
+    caps: &Capabilities,
+    signals: InferenceSignals,
+    split_a: Option<f64>,
+    altitude: Option<(f64, f64, f64)>,
+    idle_airborne: bool,
+) -> Vec<PhaseEvidence> {
+    let motors = match split_a {
+        Some(a) => format!("current above {a:.2} A (motors on)"),
+        None if signals == InferenceSignals::Altitude => "no current".to_owned(),
+        None => "current with no idle level (motors taken on)".to_owned(),
+    };
+    let idle = split_a.map_or_else(
+        || "motors off".to_owned(),
+        |a| format!("current below {a:.2} A (motors off)"),
+    );
+    let ground = match (signals, altitude) {
+        (InferenceSignals::LandDetector, _) => "the land detector says landed".to_owned(),
+        (_, Some((g, _, band))) => {
+            format!(
+                "altitude within {band:.2} m of the ground level {g:.2} m, at the log's start or end"
+            )
+        }
+        (_, None) => format!("{idle} in a period at the log's start or end"),
+    };
+    let speed = |what: &str| {
+        if altitude.is_some() {
+            format!(
+                "{motors}{}; vertical speed {what}",
+                if idle_airborne {
+                    " (or low current in the air)"
+                } else {
+                    ""
+                }
+            )
+        } else {
+            format!("{motors}; no altitude, so all flight is taken as hover")
+        }
+    };
+    let vt = VERTICAL_SPEED_THRESHOLD_M_S;
+    Phase::ALL
+        .iter()
+        .filter(|&&p| fractions.get(p) > 0.0)
+        .map(|&phase| PhaseEvidence {
+            phase,
+            fraction: fractions.get(phase),
+            evidence: match phase {
+                Phase::Ground => ground.clone(),
+                Phase::Hover => speed(&format!("within ±{vt} m/s")),
+                Phase::Climb => speed(&format!("above {vt} m/s")),
+                Phase::Descend => speed(&format!("below −{vt} m/s")),
+                Phase::Attached => format!(
+                    "{idle} at the highest plateau (or between flying periods); the robot \
+                     perches ({})",
+                    caps.perches.as_deref().unwrap_or("")
+                ),
+                Phase::Transition => format!(
+                    "{idle} away from the ground; the vehicle is a VTOL ({})",
+                    caps.vtol.as_deref().unwrap_or("")
+                ),
+            },
+        })
+        .collect()
 }
 
 /// An accepted two-cluster split of a signal.

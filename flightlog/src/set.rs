@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::{Flight, FlightLogError, FlightMeta, LogFormat, crazyflie};
+use crate::{Flight, FlightLogError, FlightMeta, LogFormat, MetaSource, crazyflie};
 
 /// Name of a folder's metadata defaults.
 pub const DEFAULTS_FILE: &str = "flights.toml";
@@ -37,9 +37,15 @@ fn is_log(path: &Path) -> bool {
     })
 }
 
-/// Orders names so that embedded numbers compare by value (`a2` < `a10`).
-pub(crate) fn natural_cmp(a: &str, b: &str) -> std::cmp::Ordering {
-    let (mut a, mut b) = (a.as_bytes(), b.as_bytes());
+/// Orders names so that embedded runs of digits compare by value (`flight2` < `flight10`,
+/// `a02` = `a2` by value, the shorter run of zeros first to keep the order total), then byte
+/// by byte. The one natural order of the workspace: flight sets and the diagnosis both use it.
+pub fn natural_cmp(a: &str, b: &str) -> std::cmp::Ordering {
+    by_number(a.as_bytes(), b.as_bytes()).then_with(|| a.cmp(b))
+}
+
+/// [`natural_cmp`] without its final byte-by-byte tie-break.
+fn by_number(mut a: &[u8], mut b: &[u8]) -> std::cmp::Ordering {
     loop {
         match (a.first(), b.first()) {
             (None, None) => return std::cmp::Ordering::Equal,
@@ -142,11 +148,12 @@ impl FlightSet {
     pub fn read_files(dir: &Path, logs: &[PathBuf]) -> Result<Self, FlightLogError> {
         let crazyflie_platform = crazyflie::is_dataset_folder(dir);
         let defaults_path = dir.join(DEFAULTS_FILE);
-        let folder = if defaults_path.is_file() {
-            FlightMeta::read(&defaults_path)?
+        let folder_file = if defaults_path.is_file() {
+            Some(FlightMeta::read(&defaults_path)?)
         } else {
-            FlightMeta::default()
+            None
         };
+        let folder = folder_file.clone().unwrap_or_default();
         let platform = crazyflie::platform_defaults();
         let defaults = if crazyflie_platform {
             folder.merged_over(&platform)
@@ -154,7 +161,12 @@ impl FlightSet {
             folder.clone()
         };
         let results: Vec<Result<Flight, FlightLogError>> = read_parallel(logs, |path| {
-            read_one(path, &folder, &platform, crazyflie_platform)
+            read_one(
+                path,
+                folder_file.as_ref().map(|m| (m, defaults_path.as_path())),
+                &platform,
+                crazyflie_platform,
+            )
         });
         let mut set = FlightSet {
             flights: Vec::new(),
@@ -182,23 +194,39 @@ impl FlightSet {
 /// Reads one log with its sidecar and (Crazyflie) planned trajectory.
 fn read_one(
     path: &Path,
-    folder: &FlightMeta,
+    folder: Option<(&FlightMeta, &Path)>,
     platform: &FlightMeta,
     crazyflie_platform: bool,
 ) -> Result<Flight, FlightLogError> {
     let mut flight = Flight::read(path)?;
     let crazyflie = crazyflie_platform || flight.format == LogFormat::Crazyflie;
-    let base = if crazyflie {
-        folder.merged_over(platform)
+    let below = if crazyflie {
+        vec![crate::MetaLayer::new(
+            platform.clone(),
+            MetaSource::Default {
+                what: "Crazyflie 2.0 platform".to_owned(),
+            },
+        )]
     } else {
-        folder.clone()
+        Vec::new()
     };
+    let mut above = Vec::new();
+    if let Some((meta, path)) = folder {
+        above.push(crate::MetaLayer::new(
+            meta.clone(),
+            MetaSource::Folder {
+                path: path.to_owned(),
+            },
+        ));
+    }
     let sidecar = path.with_extension("toml");
-    flight.meta = if sidecar.is_file() {
-        FlightMeta::read(&sidecar)?.merged_over(&base)
-    } else {
-        base
-    };
+    if sidecar.is_file() {
+        above.push(crate::MetaLayer::new(
+            FlightMeta::read(&sidecar)?,
+            MetaSource::Sidecar { path: sidecar },
+        ));
+    }
+    flight.set_metadata(&below, &above);
     if flight.format == LogFormat::Crazyflie
         && let Some(plan) = crazyflie::plan_path(path)
     {

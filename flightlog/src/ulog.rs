@@ -23,7 +23,8 @@
 use std::collections::HashMap;
 use std::path::Path;
 
-use crate::{Decoded, FlightLogError, Record, Samples};
+use crate::battery::{self, Track};
+use crate::{Decoded, FlightLogError, LogInfo, Record, Row, Samples, Vehicle, VehicleKind};
 
 /// The first seven bytes of every ULog file.
 pub const MAGIC: [u8; 7] = [0x55, 0x4C, 0x6F, 0x67, 0x01, 0x12, 0x35];
@@ -137,8 +138,37 @@ pub struct ULog<'a> {
     formats: HashMap<String, Vec<FieldDef>>,
     /// Data per (topic, multi_id), in file order.
     data: HashMap<(String, u8), Vec<DataMessage<'a>>>,
+    /// Parameters (`P` messages): the first value of each, as logged at the start.
+    pub parameters: HashMap<String, f64>,
+    /// Information (`I` messages, e.g. `sys_name`, `ver_hw`): text for `char[n]` values,
+    /// the number's decimal text otherwise.
+    pub info: HashMap<String, String>,
     /// What was skipped or odd (truncated tail, data without subscription).
     pub warnings: Vec<String>,
+}
+
+/// Decodes an `I` or `P` message body `{u8 key_len, key "type name", value}` into the name
+/// and the value: a number for a scalar type, text for `char[n]`.
+fn key_value(payload: &[u8]) -> Option<(String, KeyValue)> {
+    let len = usize::from(*payload.first()?);
+    let key = std::str::from_utf8(payload.get(1..1 + len)?).ok()?;
+    let value = payload.get(1 + len..)?;
+    let (ty, name) = key.trim().rsplit_once(' ')?;
+    let ty = ty.trim();
+    let name = name.trim().to_owned();
+    if ty.starts_with("char[") {
+        let end = value.iter().position(|&b| b == 0).unwrap_or(value.len());
+        let text = String::from_utf8_lossy(&value[..end]).trim().to_owned();
+        return Some((name, KeyValue::Text(text)));
+    }
+    let scalar = Scalar::from_name(ty)?;
+    Some((name, KeyValue::Number(scalar.decode(value)?)))
+}
+
+/// The value of an `I` or `P` message.
+enum KeyValue {
+    Number(f64),
+    Text(String),
 }
 
 /// A `u16` at `pos` (little-endian), if in range.
@@ -210,6 +240,8 @@ impl<'a> ULog<'a> {
             start_timestamp_us: u64_at(bytes, 8).unwrap_or(0),
             formats: HashMap::new(),
             data: HashMap::new(),
+            parameters: HashMap::new(),
+            info: HashMap::new(),
             warnings: Vec::new(),
         };
         let mut subscriptions: HashMap<u16, (String, u8)> = HashMap::new();
@@ -291,6 +323,20 @@ impl<'a> ULog<'a> {
                         .to_owned();
                     subscriptions.insert(id, (name, multi));
                 }
+                b'P' => {
+                    if let Some((name, KeyValue::Number(v))) = key_value(payload) {
+                        log.parameters.entry(name).or_insert(v);
+                    }
+                }
+                b'I' => match key_value(payload) {
+                    Some((name, KeyValue::Text(t))) => {
+                        log.info.entry(name).or_insert(t);
+                    }
+                    Some((name, KeyValue::Number(v))) => {
+                        log.info.entry(name).or_insert_with(|| v.to_string());
+                    }
+                    None => {}
+                },
                 b'R' => {
                     if let Some(id) = u16_at(payload, 0) {
                         subscriptions.remove(&id);
@@ -393,9 +439,22 @@ impl<'a> ULog<'a> {
             .min()
     }
 
+    /// The instances (multi_id) of a topic that have data, ascending.
+    pub fn instances(&self, topic: &str) -> Vec<u8> {
+        let mut v: Vec<u8> = self
+            .data
+            .keys()
+            .filter(|(n, _)| n == topic)
+            .map(|&(_, m)| m)
+            .collect();
+        v.sort_unstable();
+        v
+    }
+
     /// Values of top-level scalar fields of a topic's first instance, one row per message:
     /// `(byte offset, values)`. `Ok(None)` when the topic has no data; a missing field is
-    /// `NaN` in every row when `required` is false, else an error.
+    /// `NaN` in every row when `required` is false, else an error. (See [`ULog::rows`] for
+    /// any instance, with `None` for a missing field.)
     pub fn columns(
         &self,
         topic: &str,
@@ -405,7 +464,34 @@ impl<'a> ULog<'a> {
         let Some(multi) = self.first_instance(topic) else {
             return Ok(None);
         };
-        let messages = &self.data[&(topic.to_owned(), multi)];
+        Ok(Some(
+            self.rows(topic, multi, fields, path)?
+                .into_iter()
+                .map(|r| Record {
+                    offset: r.offset,
+                    values: r
+                        .values
+                        .into_iter()
+                        .map(|v| v.unwrap_or(f64::NAN))
+                        .collect(),
+                })
+                .collect(),
+        ))
+    }
+
+    /// Values of top-level scalar fields of one instance of a topic, one row per message.
+    /// Empty when that instance has no data; a field the format lacks is `None` in every row
+    /// when `required` is false, else an error.
+    pub fn rows(
+        &self,
+        topic: &str,
+        instance: u8,
+        fields: &[(&str, bool)],
+        path: &Path,
+    ) -> Result<Vec<Row>, FlightLogError> {
+        let Some(messages) = self.data.get(&(topic.to_owned(), instance)) else {
+            return Ok(Vec::new());
+        };
         let first_offset = messages.first().map_or(0, |m| m.offset);
         let fail = |offset: u64, field: &str, message: String| FlightLogError::Binary {
             path: path.to_owned(),
@@ -431,9 +517,9 @@ impl<'a> ULog<'a> {
         for m in messages {
             let mut values = Vec::with_capacity(fields.len());
             for (k, slot) in layout.iter().enumerate() {
-                let v = match slot {
-                    None => f64::NAN,
-                    Some((off, ty)) => {
+                values.push(match slot {
+                    None => None,
+                    Some((off, ty)) => Some(
                         m.data
                             .get(*off..)
                             .and_then(|b| ty.decode(b))
@@ -447,82 +533,183 @@ impl<'a> ULog<'a> {
                                         off + ty.size()
                                     ),
                                 )
-                            })?
-                    }
-                };
-                values.push(v);
+                            })?,
+                    ),
+                });
             }
-            rows.push(Record {
+            rows.push(Row {
                 offset: m.offset,
                 values,
             });
         }
-        Ok(Some(rows))
+        Ok(rows)
     }
+}
+
+/// The first parameter of `names` the log has with a value accepted by `ok`.
+fn param<'n>(
+    log: &ULog<'_>,
+    names: &[&'n str],
+    ok: impl Fn(f64) -> bool,
+) -> Option<(&'n str, f64)> {
+    names.iter().find_map(|&n| {
+        log.parameters
+            .get(n)
+            .copied()
+            .filter(|&v| ok(v))
+            .map(|v| (n, v))
+    })
 }
 
 /// Parses a `.ulg` into a flight's samples.
 pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError> {
     let log = ULog::parse(bytes, path)?;
     let mut warnings = log.warnings.clone();
-    let battery = log
-        .columns(
-            "battery_status",
-            &[
-                ("timestamp", true),
-                ("voltage_v", true),
-                ("current_a", false),
-            ],
-            path,
-        )?
-        .ok_or_else(|| FlightLogError::MissingData {
-            path: path.to_owned(),
-            field: "battery_status".to_owned(),
-            message: format!(
-                "the log has no battery_status data (topics: {})",
-                log.topics().join(", ")
-            ),
-        })?;
-    let mut offsets = Vec::new();
-    let mut stamps = Vec::new();
-    let mut voltage = Vec::new();
-    let mut current = Vec::new();
-    let mut dropped = 0usize;
-    for Record {
-        offset,
-        values: row,
-    } in &battery
-    {
-        let (ts, v, i) = (row[0], row[1], row[2]);
-        if !(v.is_finite() && v > 0.0) {
-            dropped += 1;
+    let mut info = LogInfo {
+        firmware: log.info.get("sys_name").map(|name| {
+            match log.info.get("ver_sw_branch").or(log.info.get("ver_sw")) {
+                Some(v) => format!("{name} {v}"),
+                None => name.clone(),
+            }
+        }),
+        hardware: log.info.get("ver_hw").cloned(),
+        ..LogInfo::default()
+    };
+
+    // Every battery_status instance, each with its cell count.
+    let fields = [
+        ("timestamp", true),
+        ("voltage_v", true),
+        ("current_a", false),
+        ("connected", false),
+        ("remaining", false),
+        ("warning", false),
+        ("cell_count", false),
+        ("id", false),
+    ];
+    let mut tracks = Vec::new();
+    for instance in log.instances("battery_status") {
+        let rows = log.rows("battery_status", instance, &fields, path)?;
+        if rows.is_empty() {
             continue;
         }
-        offsets.push(*offset);
-        stamps.push(ts);
-        voltage.push(v);
-        current.push(i);
+        let col = |k: usize| rows.iter().map(move |r| r.values[k]);
+        let id = col(7)
+            .flatten()
+            .find(|&v| (1.0..=9.0).contains(&v))
+            .map_or(u32::from(instance) + 1, |v| v as u32);
+        let cell_field = col(6).flatten().find(|&c| c >= 1.0);
+        let numbered = format!("BAT{id}_N_CELLS");
+        let cells = match cell_field {
+            Some(c) => Some((c as u32, "battery_status.cell_count".to_owned())),
+            None => param(&log, &[numbered.as_str(), "BAT_N_CELLS"], |v| v >= 1.0)
+                .map(|(n, v)| (v as u32, n.to_owned())),
+        };
+        let present = |k: usize| rows.first().is_some_and(|r| r.values[k].is_some());
+        tracks.push(Track {
+            name: format!("battery_status instance {instance}"),
+            offsets: rows.iter().map(|r| r.offset).collect(),
+            time_s: col(0).map(|t| t.unwrap_or(f64::NAN) / 1e6).collect(),
+            voltage_v: col(1).map(|v| v.unwrap_or(f64::NAN)).collect(),
+            current_a: col(2).collect(),
+            connected: present(3).then(|| col(3).map(|c| c != Some(0.0)).collect()),
+            remaining: present(4).then(|| col(4).map(|r| r.unwrap_or(-1.0)).collect()),
+            warning: present(5).then(|| {
+                col(5)
+                    .map(|w| w.unwrap_or(0.0).clamp(0.0, 255.0) as u8)
+                    .collect()
+            }),
+            cells,
+        });
     }
-    if dropped > 0 {
-        warnings.push(format!(
-            "{dropped} battery_status sample(s) without a voltage (≤ 0 or not finite) dropped"
-        ));
-    }
-    let t0 = stamps.first().copied().unwrap_or(0.0);
-    let time_s: Vec<f64> = stamps.iter().map(|&t| (t - t0) / 1e6).collect();
+    let chosen = battery::choose(path, &tracks, "battery_status", &log.topics().join(", "))?;
+    warnings.extend(chosen.warnings.iter().cloned());
+    let t0 = chosen.t0_s;
+    let time_s = chosen.time_s.clone();
     crate::check_time(path, &time_s, "battery_status.timestamp", |i| {
-        format!("byte {}", offsets.get(i).copied().unwrap_or(0))
+        format!("byte {}", chosen.offsets.get(i).copied().unwrap_or(0))
     })?;
-    let current_a = if current.iter().any(|&c| c.is_finite() && c >= 0.0) {
-        Some(
-            current
-                .iter()
-                .map(|&c| if c.is_finite() { c } else { 0.0 })
-                .collect(),
-        )
-    } else {
-        None
+
+    // Metadata from the parameters of the battery used (BATn_…, else the older BAT_…).
+    let n = chosen
+        .info
+        .battery
+        .rsplit(' ')
+        .next()
+        .and_then(|i| i.parse::<u32>().ok())
+        .map_or(1, |i| i + 1);
+    let names = |suffix: &str| [format!("BAT{n}_{suffix}"), format!("BAT_{suffix}")];
+    let lookup = |suffix: &str, ok: &dyn Fn(f64) -> bool| {
+        let [a, b] = names(suffix);
+        [a, b].into_iter().find_map(|k| {
+            log.parameters
+                .get(&k)
+                .copied()
+                .filter(|&v| ok(v))
+                .map(|v| (k, v))
+        })
     };
+    if let Some((cells, origin)) = chosen.info.cells.clone() {
+        info.set("cells", origin, |m| m.cells = Some(cells));
+    }
+    if let Some((k, v)) = lookup("CAPACITY", &|v| v > 0.0) {
+        info.set("capacity_mah", k, |m| m.capacity_mah = Some(v));
+    }
+    if let Some(cells) = info.meta.cells {
+        let c = f64::from(cells);
+        if let Some((k, v)) = lookup("V_EMPTY", &|v| v > 0.0 && v < 5.0) {
+            info.set("cutoff_voltage_v", format!("{k} × {cells} cells"), |m| {
+                m.cutoff_voltage_v = Some(v * c);
+            });
+        }
+        if let Some((k, v)) = lookup("V_CHARGED", &|v| v > 0.0 && v < 5.0) {
+            info.set("charged_voltage_v", format!("{k} × {cells} cells"), |m| {
+                m.charged_voltage_v = Some(v * c);
+            });
+        }
+    }
+    if let Some((k, v)) = param(&log, &["MPC_THR_HOVER"], |v| v > 0.0 && v <= 1.0) {
+        info.set("hover_throttle", k, |m| m.hover_throttle = Some(v));
+    }
+    info.derive_energy();
+
+    // Vehicle: MAV_TYPE, else vehicle_status (system_type, is_vtol).
+    let status = log
+        .instances("vehicle_status")
+        .first()
+        .map(|&i| {
+            log.rows(
+                "vehicle_status",
+                i,
+                &[("system_type", false), ("is_vtol", false)],
+                path,
+            )
+        })
+        .transpose()?
+        .unwrap_or_default();
+    let status_vtol = status.iter().any(|r| r.values[1] == Some(1.0));
+    let status_type = status.iter().find_map(|r| r.values[0]);
+    let vehicle = match (param(&log, &["MAV_TYPE"], |v| v >= 0.0), status_type) {
+        (Some((_, t)), _) => Some((t as u32, "MAV_TYPE".to_owned())),
+        (None, Some(t)) => Some((t as u32, "vehicle_status.system_type".to_owned())),
+        (None, None) => None,
+    }
+    .map(|(t, origin)| {
+        let mut kind = VehicleKind::from_mav_type(t);
+        let mut description = format!("{} ({origin} {t})", mav_type_name(t));
+        if status_vtol && kind != VehicleKind::Vtol {
+            kind = VehicleKind::Vtol;
+            description.push_str(", vehicle_status.is_vtol");
+        }
+        Vehicle { kind, description }
+    });
+    if let Some(v) = &vehicle {
+        info.set("vehicle", v.description.clone(), |m| {
+            m.vehicle = Some(v.kind)
+        });
+    }
+    info.vehicle = vehicle;
+    info.battery = Some(chosen.info.clone());
 
     let altitude_m = match log.columns(
         "vehicle_local_position",
@@ -533,7 +720,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
             let (t, z): (Vec<f64>, Vec<f64>) = rows
                 .iter()
                 .filter(|r| r.values[2] != 0.0 && r.values[1].is_finite())
-                .map(|r| ((r.values[0] - t0) / 1e6, -r.values[1]))
+                .map(|r| (r.values[0] / 1e6 - t0, -r.values[1]))
                 .unzip();
             if t.is_empty() {
                 warnings.push("vehicle_local_position has no valid z".to_owned());
@@ -553,22 +740,45 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
         .map(|rows| {
             let (t, l): (Vec<f64>, Vec<bool>) = rows
                 .iter()
-                .map(|r| ((r.values[0] - t0) / 1e6, r.values[1] != 0.0))
+                .map(|r| (r.values[0] / 1e6 - t0, r.values[1] != 0.0))
                 .unzip();
             crate::resample::hold(&t, &l, &time_s)
         });
     Ok(Decoded {
         samples: Samples {
             time_s,
-            voltage_v: voltage,
-            current_a,
+            voltage_v: chosen.voltage_v,
+            current_a: chosen.current_a,
             phase: None,
             altitude_m,
             throttle: None,
+            landed: None,
         },
         landed,
         warnings,
+        info,
     })
+}
+
+/// MAVLink's name of a `MAV_TYPE`.
+fn mav_type_name(t: u32) -> &'static str {
+    match t {
+        1 => "fixed wing",
+        2 => "quadrotor",
+        3 => "coaxial helicopter",
+        4 => "helicopter",
+        13 => "hexarotor",
+        14 => "octorotor",
+        15 => "tricopter",
+        19 => "VTOL tailsitter duo-rotor",
+        20 => "VTOL tailsitter quadrotor",
+        21 => "VTOL tiltrotor",
+        22 => "VTOL fixed-rotor (standard VTOL)",
+        23 => "VTOL tailsitter",
+        24 => "VTOL tiltwing",
+        10..=12 => "ground or water vehicle",
+        _ => "other vehicle",
+    }
 }
 
 #[cfg(test)]
@@ -595,6 +805,8 @@ mod tests {
             start_timestamp_us: 0,
             formats: HashMap::new(),
             data: HashMap::new(),
+            parameters: HashMap::new(),
+            info: HashMap::new(),
             warnings: Vec::new(),
         };
         for d in 0..15 {

@@ -5,7 +5,10 @@ mod common;
 use std::path::Path;
 
 use common::{DataFlashWriter, profile};
-use flightlog::{Flight, FlightLogError, InferenceSignals, LogFormat, Phase, PhaseSource};
+use flightlog::{
+    Flight, FlightLogError, FlightMeta, InferenceSignals, LogFormat, MetaLayer, MetaSource, Phase,
+    PhaseSource,
+};
 
 const BAT: u8 = 147;
 const CTUN: u8 = 148;
@@ -86,7 +89,35 @@ fn parse(bytes: &[u8]) -> Result<Flight, FlightLogError> {
 
 #[test]
 fn round_trip_with_ctun() {
-    let flight = parse(&profile_log(true)).unwrap();
+    let mut flight = parse(&profile_log(true)).unwrap();
+    // Nothing says this robot perches: its ceiling period is no `attached` phase.
+    assert!(
+        !flight
+            .samples
+            .phase
+            .as_ref()
+            .unwrap()
+            .contains(&Phase::Attached),
+        "{:?}",
+        flight.phase_source
+    );
+    let perches = FlightMeta {
+        perches: Some(true),
+        ..FlightMeta::default()
+    };
+    flight.set_metadata(
+        &[],
+        &[MetaLayer::new(
+            perches,
+            MetaSource::Sidecar {
+                path: "copter.toml".into(),
+            },
+        )],
+    );
+    assert_eq!(
+        flight.metadata["perches"].source.to_string(),
+        "sidecar (copter.toml)"
+    );
     let s = &flight.samples;
     assert!(s.is_consistent());
     assert_eq!(s.len(), 121);
@@ -108,6 +139,15 @@ fn round_trip_with_ctun() {
         panic!()
     };
     assert_eq!(method.signals, InferenceSignals::CurrentAndAltitude);
+    let attached = method
+        .evidence
+        .iter()
+        .find(|e| e.phase == Phase::Attached)
+        .unwrap();
+    assert!(
+        attached.evidence.contains("perches = true from sidecar"),
+        "{attached:?}"
+    );
     assert!(flight.warnings.is_empty(), "{:?}", flight.warnings);
 }
 
@@ -198,7 +238,7 @@ fn bad_definitions_and_missing_battery() {
     let err = parse(&w.finish()).unwrap_err();
     assert!(
         matches!(&err, FlightLogError::MissingData { field, message, .. }
-            if field == "BAT" && message.contains("CTUN")),
+            if field.contains("BAT") && field.contains("CURR") && message.contains("CTUN")),
         "{err}"
     );
 

@@ -5,7 +5,10 @@ mod common;
 use std::path::Path;
 
 use common::{ULOG_FORMATS, UlogWriter, battery_status, land_detected, local_position, profile};
-use flightlog::{Flight, FlightLogError, InferenceSignals, LogFormat, Phase, PhaseSource};
+use flightlog::{
+    Flight, FlightLogError, FlightMeta, InferenceSignals, LogFormat, MetaLayer, MetaSource, Phase,
+    PhaseSource,
+};
 
 const T0_US: u64 = 1_000_000;
 
@@ -64,6 +67,22 @@ fn round_trip() {
     let altitude = s.altitude_m.as_ref().unwrap();
     assert!((altitude[100] - 2.0).abs() < 1e-6);
     assert!((altitude[300] - 2.5).abs() < 1e-6);
+    // Nothing says the robot perches: the ceiling period is not `attached`.
+    assert_eq!(s.phase.as_ref().unwrap()[280], Phase::Hover);
+    let mut flight = flight.clone();
+    flight.set_metadata(
+        &[],
+        &[MetaLayer::new(
+            FlightMeta {
+                perches: Some(true),
+                ..FlightMeta::default()
+            },
+            MetaSource::Folder {
+                path: "flights.toml".into(),
+            },
+        )],
+    );
+    let s = &flight.samples;
     let phases = s.phase.as_ref().unwrap();
     assert_eq!(phases[20], Phase::Ground);
     assert_eq!(phases[60], Phase::Climb);
@@ -76,7 +95,13 @@ fn round_trip() {
     };
     assert_eq!(method.signals, InferenceSignals::LandDetector);
     assert!(method.current_split_a.is_some_and(|a| a > 0.35 && a < 8.5));
-    assert!(flight.warnings.is_empty(), "{:?}", flight.warnings);
+    // The second battery (1 V, 99 A) is skipped, and says why.
+    assert_eq!(flight.warnings.len(), 1, "{:?}", flight.warnings);
+    assert!(
+        flight.warnings[0].contains("skipped battery_status instance 1: median voltage 1.000 V"),
+        "{:?}",
+        flight.warnings
+    );
 }
 
 #[test]
@@ -192,7 +217,7 @@ fn unmeasured_voltage_and_unknown_current() {
         flight
             .warnings
             .iter()
-            .any(|w| w.contains("1 battery_status sample"))
+            .any(|w| w.contains("1 battery_status instance 0 sample"))
     );
 }
 
