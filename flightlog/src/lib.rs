@@ -66,6 +66,11 @@ pub use phase::{
 pub use set::{FlightSet, Skipped, natural_cmp};
 pub use summary::{FlightSummary, SetSummary};
 
+/// Lowest plausible peak electrical power of a flying vehicle per battery cell, W: a check of
+/// the current sensor ([`Flight::plausibility_warnings`]). A 1S Crazyflie peaks near 10 W;
+/// multirotors on 3S–6S draw 100 W or more.
+pub const MIN_FLYING_POWER_PER_CELL_W: f64 = 8.0;
+
 /// Longest gap allowed between two samples, s: a longer one is a hole in the log.
 pub const MAX_GAP_S: f64 = 5.0;
 
@@ -278,6 +283,33 @@ impl Flight {
         self.meta = meta;
         self.metadata = values;
         self.infer_phases();
+    }
+
+    /// Checks of what was read that do not stop a flight being read, in words: a current
+    /// sensor that reads too little for the vehicle to fly (peak power below
+    /// [`MIN_FLYING_POWER_PER_CELL_W`] per cell while airborne for at least 5 s).
+    pub fn plausibility_warnings(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        let s = &self.samples;
+        if let (Some(power), Some(phases), Some(cells)) = (s.power_w(), &s.phase, self.meta.cells) {
+            let airborne_s = s.time_in_s(Phase::is_flying).unwrap_or(0.0);
+            let peak = power
+                .iter()
+                .zip(phases)
+                .filter(|(_, p)| p.is_flying())
+                .map(|(w, _)| *w)
+                .fold(f64::NEG_INFINITY, f64::max);
+            let floor = MIN_FLYING_POWER_PER_CELL_W * f64::from(cells);
+            if airborne_s >= 5.0 && peak < floor {
+                out.push(format!(
+                    "current implausibly low: {peak:.1} W at most while flying for \
+                     {airborne_s:.0} s, below {floor:.0} W ({MIN_FLYING_POWER_PER_CELL_W} W per \
+                     cell × {cells}); check the current sensor's calibration (PX4 BAT*_A_PER_V, \
+                     ArduPilot BATT_AMP_PERVLT) before using this flight's power"
+                ));
+            }
+        }
+        out
     }
 
     /// What the vehicle can do, from its metadata: perch (`perches = true`) and fly as a VTOL

@@ -380,9 +380,15 @@ pub fn infer_for(signals: Signals<'_>, caps: &Capabilities) -> Option<(Vec<Phase
                         Phase::Attached
                     } else if caps.vtol.is_some() {
                         Phase::Transition
-                    } else {
+                    } else if landed == Some(false) {
+                        // The land detector says airborne: the current split is not motors
+                        // on/off but low and high power in flight.
                         idle_airborne += 1;
                         by_speed()
+                    } else {
+                        // Neither perching nor a VTOL: motors off means on the ground, whatever
+                        // a drifting altitude says.
+                        Phase::Ground
                     }
                 } else if on_ground {
                     tentative[i] = landed.is_none();
@@ -490,8 +496,9 @@ pub fn infer_for(signals: Signals<'_>, caps: &Capabilities) -> Option<(Vec<Phase
     if idle_airborne > 0 {
         notes.push(format!(
             "{idle_airborne} sample(s) with current below the idle/flying split away from the \
-             ground classified by vertical speed: the vehicle neither perches nor is a VTOL, \
-             so low current in the air is low-power flight, not motors off"
+             ground, where the land detector says airborne, classified by vertical speed: the \
+             vehicle neither perches nor is a VTOL, so low current in the air is low-power \
+             flight, not motors off"
         ));
     }
     let fractions = PhaseFractions::of(&phases);
@@ -548,19 +555,27 @@ fn evidence(
     };
     let speed = |what: &str| {
         if altitude.is_some() {
-            format!(
-                "{motors}{}; vertical speed {what}",
-                if idle_airborne {
-                    " (or low current in the air)"
-                } else {
-                    ""
-                }
-            )
+            let low = if idle_airborne {
+                ", or below it away from the ground (neither perching nor a VTOL, the motors \
+                 do not stop in the air)"
+            } else {
+                ""
+            };
+            format!("{motors}{low}; vertical speed {what}")
         } else {
             format!("{motors}; no altitude, so all flight is taken as hover")
         }
     };
     let vt = VERTICAL_SPEED_THRESHOLD_M_S;
+    let ground = if split_a.is_some()
+        && caps.perches.is_none()
+        && caps.vtol.is_none()
+        && signals != InferenceSignals::LandDetector
+    {
+        format!("{ground}; or {idle} (neither perching nor a VTOL: motors off is on the ground)")
+    } else {
+        ground
+    };
     Phase::ALL
         .iter()
         .filter(|&&p| fractions.get(p) > 0.0)

@@ -185,6 +185,45 @@ impl FlightSet {
         Ok(set)
     }
 
+    /// Reads folders and log files as one set: each folder as [`FlightSet::read`], each file
+    /// with its folder's `flights.toml` and its sidecar as [`FlightSet::read_files`]. The
+    /// defaults are the first path's. Errors when a path does not exist, a folder cannot be
+    /// read or holds no log, or a `flights.toml` is invalid.
+    pub fn read_paths(paths: &[PathBuf]) -> Result<Self, FlightLogError> {
+        let mut out: Option<FlightSet> = None;
+        for p in paths {
+            let set = if p.is_dir() {
+                Self::read(p)?
+            } else if p.exists() {
+                let dir = p
+                    .parent()
+                    .filter(|d| !d.as_os_str().is_empty())
+                    .unwrap_or(Path::new("."));
+                Self::read_files(dir, std::slice::from_ref(p))?
+            } else {
+                return Err(FlightLogError::Io {
+                    path: p.clone(),
+                    error: std::io::Error::new(
+                        std::io::ErrorKind::NotFound,
+                        "no such file or folder",
+                    ),
+                });
+            };
+            match out.as_mut() {
+                None => out = Some(set),
+                Some(all) => {
+                    all.flights.extend(set.flights);
+                    all.skipped.extend(set.skipped);
+                }
+            }
+        }
+        Ok(out.unwrap_or(FlightSet {
+            flights: Vec::new(),
+            skipped: Vec::new(),
+            defaults: FlightMeta::default(),
+        }))
+    }
+
     /// A flight by name.
     pub fn get(&self, name: &str) -> Option<&Flight> {
         self.flights.iter().find(|f| f.name == name)

@@ -167,7 +167,7 @@ impl FlightSummary {
             .iter()
             .map(|(k, v)| {
                 let value = match &v.value {
-                    toml::Value::Float(x) => toml::Value::Float(round(*x, 6)),
+                    toml::Value::Float(x) => toml::Value::Float(round(*x, 4)),
                     other => other.clone(),
                 };
                 (
@@ -218,7 +218,12 @@ impl FlightSummary {
             firmware: flight.log.firmware.clone(),
             vehicle: flight.log.vehicle.as_ref().map(|v| v.description.clone()),
             battery,
-            warnings: flight.warnings.clone(),
+            warnings: flight
+                .warnings
+                .iter()
+                .cloned()
+                .chain(flight.plausibility_warnings())
+                .collect(),
         }
     }
 }
@@ -231,9 +236,14 @@ impl SetSummary {
             skipped: set
                 .skipped
                 .iter()
-                .map(|s| SkippedSummary {
-                    file: s.path.display().to_string(),
-                    reason: error_chain(&s.reason),
+                .map(|s| {
+                    let file = s.path.display().to_string();
+                    let reason = error_chain(&s.reason);
+                    let reason = reason
+                        .strip_prefix(&format!("{file}: "))
+                        .or_else(|| reason.strip_prefix(&format!("{file}, ")))
+                        .map_or_else(|| reason.clone(), str::to_owned);
+                    SkippedSummary { file, reason }
                 })
                 .collect(),
         }

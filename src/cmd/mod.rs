@@ -6,6 +6,7 @@ pub mod characterise;
 pub mod estimate;
 pub mod export;
 pub mod fit;
+pub mod flights;
 pub mod gap;
 pub mod gap_eval;
 pub mod gap_summary;
@@ -43,6 +44,9 @@ pub enum Command {
     Optimise(optimise::Args),
     /// Evaluate a mission of hover and ceiling-attached segments (eqs. 7-9, Table I).
     Mission(mission::Args),
+    /// Inspect flight logs: span, rate, voltage, current, energy, phases and metadata with their
+    /// sources, and every skipped file with its reason.
+    Flights(flights::Args),
     /// Diagnose the sim-to-real gap of a flight set: where, which effect, how far it shrinks.
     Gap(gap::Args),
     /// The gap on mission summaries (estimated vs measured endurance), e.g. the paper's Table I.
@@ -72,6 +76,7 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Export(a) => export::run(a),
         Command::Optimise(a) => optimise::run(a),
         Command::Mission(a) => mission::run(a),
+        Command::Flights(a) => flights::run(a),
         Command::Gap(a) => gap::run(a),
         Command::GapEval(a) => gap_eval::run(a),
         Command::GapSummary(a) => gap_summary::run(a),
