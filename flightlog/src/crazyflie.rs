@@ -131,93 +131,94 @@ pub fn plan_path(real_path_csv: &Path) -> Option<PathBuf> {
     Some(dataset.join(PLAN_DIR).join(format!("Trajectories_{n}.csv")))
 }
 
-/// Rows of a numeric CSV of `width` columns after a header: `(line, values)`; errors name the
-/// line and the column.
-fn numeric_rows<'a>(
-    bytes: &'a [u8],
-    path: &'a Path,
-    header: &'a str,
-) -> Result<impl Iterator<Item = Result<(u64, [f64; 4]), FlightLogError>> + 'a, FlightLogError> {
-    let text = std::str::from_utf8(bytes).map_err(|e| FlightLogError::Csv {
-        path: path.to_owned(),
-        line: 1 + bytes[..e.valid_up_to()]
-            .iter()
-            .filter(|&&b| b == b'\n')
-            .count() as u64,
-        message: "not UTF-8 text".to_owned(),
-    })?;
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+/// Rows of a numeric CSV of up to 4 columns after a header (read with the `csv` crate):
+/// `(line, values)`; errors name the line and the column.
+fn numeric_rows(
+    bytes: &[u8],
+    path: &Path,
+    header: &str,
+) -> Result<Vec<(u64, [f64; 4])>, FlightLogError> {
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     let names: Vec<&str> = header.split(',').collect();
     let width = names.len();
-    let mut lines = text.split('\n').enumerate();
-    // The header: the first non-blank line.
-    let mut found = false;
-    for (_, line) in lines.by_ref() {
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .comment(Some(b'#'))
+        .trim(csv::Trim::All)
+        .flexible(true)
+        .from_reader(bytes);
+    let csv_error = |e: csv::Error| {
+        let line = e.position().map_or(1, csv::Position::line);
+        let message = match e.kind() {
+            csv::ErrorKind::Utf8 { .. } => "not UTF-8 text".to_owned(),
+            _ => e.to_string(),
+        };
+        FlightLogError::Csv {
+            path: path.to_owned(),
+            line,
+            message,
         }
-        let same = line.split(',').map(str::trim).count() == width
-            && line
-                .split(',')
-                .map(str::trim)
-                .zip(&names)
-                .all(|(a, b)| a.eq_ignore_ascii_case(b));
-        if !same {
+    };
+    let mut head = csv::StringRecord::new();
+    loop {
+        if !reader.read_record(&mut head).map_err(csv_error)? {
             return Err(FlightLogError::Csv {
                 path: path.to_owned(),
                 line: 1,
-                message: format!("the header is {line:?}, not {header:?}"),
+                message: format!("no header row (expected {header:?})"),
             });
         }
-        found = true;
-        break;
+        if head.iter().any(|f| !f.is_empty()) {
+            break;
+        }
     }
-    if !found {
+    let same = head.len() == width
+        && head
+            .iter()
+            .zip(&names)
+            .all(|(a, b)| a.eq_ignore_ascii_case(b));
+    if !same {
         return Err(FlightLogError::Csv {
             path: path.to_owned(),
-            line: 1,
-            message: format!("no header row (expected {header:?})"),
+            line: head.position().map_or(1, csv::Position::line),
+            message: format!(
+                "the header is {:?}, not {header:?}",
+                head.iter().collect::<Vec<_>>().join(",")
+            ),
         });
     }
-    Ok(lines.filter_map(move |(i, line)| {
-        let line = line.trim();
-        if line.is_empty() {
-            return None;
+    let mut rows = Vec::new();
+    let mut record = csv::StringRecord::new();
+    while reader.read_record(&mut record).map_err(csv_error)? {
+        if record.iter().all(str::is_empty) {
+            continue;
         }
-        let n = i as u64 + 1;
+        let line = record.position().map_or(0, csv::Position::line);
+        if record.len() != width {
+            return Err(FlightLogError::Csv {
+                path: path.to_owned(),
+                line,
+                message: format!("{} fields where the header has {width}", record.len()),
+            });
+        }
         let mut out = [0.0; 4];
-        let mut count = 0usize;
-        for (k, cell) in line.split(',').enumerate() {
-            if k >= width {
-                count = k + 1;
-                break;
-            }
-            let cell = cell.trim();
+        for (k, cell) in record.iter().enumerate() {
             match cell.parse::<f64>() {
                 Ok(v) if v.is_finite() => out[k] = v,
                 _ => {
-                    return Some(Err(FlightLogError::BadValue {
+                    return Err(FlightLogError::BadValue {
                         path: path.to_owned(),
-                        line: n,
+                        line,
                         column: names[k].to_owned(),
                         value: cell.to_owned(),
                         expected: "a finite number".to_owned(),
-                    }));
+                    });
                 }
             }
-            count = k + 1;
         }
-        if count != width {
-            let fields = line.split(',').count();
-            return Some(Err(FlightLogError::Csv {
-                path: path.to_owned(),
-                line: n,
-                message: format!("{fields} fields where the header has {width}"),
-            }));
-        }
-        Some(Ok((n, out)))
-    }))
+        rows.push((line, out));
+    }
+    Ok(rows)
 }
 
 /// Parses a `Real_path_N.csv`.
@@ -227,8 +228,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
         ..Samples::default()
     };
     let mut altitude = Vec::new();
-    for row in numeric_rows(bytes, path, HEADER)? {
-        let (line, [_, _, z, v]) = row?;
+    for (line, [_, _, z, v]) in numeric_rows(bytes, path, HEADER)? {
         if v <= 0.0 {
             return Err(FlightLogError::BadValue {
                 path: path.to_owned(),
@@ -262,8 +262,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
 /// Parses a `Trajectories_N.csv` into waypoints (x, y, z), m.
 pub fn parse_plan(bytes: &[u8], path: &Path) -> Result<Vec<[f64; 3]>, FlightLogError> {
     let mut out = Vec::new();
-    for row in numeric_rows(bytes, path, PLAN_HEADER)? {
-        let (_, [x, y, z, _]) = row?;
+    for (_, [x, y, z, _]) in numeric_rows(bytes, path, PLAN_HEADER)? {
         out.push([x, y, z]);
     }
     Ok(out)
