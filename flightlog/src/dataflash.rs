@@ -797,6 +797,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
             altitude_m,
             throttle,
             landed: None,
+            vtol_transition: None,
         },
         landed: None,
         warnings,

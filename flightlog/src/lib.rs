@@ -93,6 +93,9 @@ pub struct Samples {
     pub throttle: Option<Vec<f64>>,
     /// A land detector's verdict (PX4 `vehicle_land_detected.landed`), when logged.
     pub landed: Option<Vec<bool>>,
+    /// A VTOL's own state: in transition or in fixed-wing flight (PX4
+    /// `vtol_vehicle_status`), when logged.
+    pub vtol_transition: Option<Vec<bool>>,
 }
 
 impl Samples {
@@ -149,6 +152,7 @@ impl Samples {
             && self.altitude_m.as_ref().is_none_or(|c| c.len() == n)
             && self.throttle.as_ref().is_none_or(|c| c.len() == n)
             && self.landed.as_ref().is_none_or(|c| c.len() == n)
+            && self.vtol_transition.as_ref().is_none_or(|c| c.len() == n)
     }
 }
 
@@ -339,7 +343,7 @@ impl Flight {
             return;
         }
         let caps = self.capabilities();
-        match phase::infer_for(
+        match phase::infer_vtol(
             phase::Signals {
                 time_s: &self.samples.time_s,
                 current_a: self.samples.current_a.as_deref(),
@@ -347,6 +351,7 @@ impl Flight {
                 landed: self.samples.landed.as_deref(),
             },
             &caps,
+            self.samples.vtol_transition.as_deref(),
         ) {
             Some((phases, source)) => {
                 self.samples.phase = Some(phases);

@@ -300,12 +300,24 @@ pub fn infer(signals: Signals<'_>) -> Option<(Vec<Phase>, PhaseSource)> {
 /// infer from (no current, no altitude, no land detector) or the signals' lengths differ from
 /// `time_s`.
 pub fn infer_for(signals: Signals<'_>, caps: &Capabilities) -> Option<(Vec<Phase>, PhaseSource)> {
+    infer_vtol(signals, caps, None)
+}
+
+/// [`infer_for`] with a VTOL autopilot's own state at each sample (`true`: in transition or
+/// in fixed-wing flight, as PX4's `vtol_vehicle_status` says): for a VTOL, `transition` phases
+/// then come from that state alone, not from the current.
+pub fn infer_vtol(
+    signals: Signals<'_>,
+    caps: &Capabilities,
+    vtol_transition: Option<&[bool]>,
+) -> Option<(Vec<Phase>, PhaseSource)> {
     let n = signals.time_s.len();
     let fits = |len: Option<usize>| len.is_none_or(|l| l == n);
     if n == 0
         || !fits(signals.current_a.map(<[f64]>::len))
         || !fits(signals.altitude_m.map(<[f64]>::len))
         || !fits(signals.landed.map(<[bool]>::len))
+        || !fits(vtol_transition.map(<[bool]>::len))
     {
         return None;
     }
@@ -378,7 +390,7 @@ pub fn infer_for(signals: Signals<'_>, caps: &Capabilities) -> Option<(Vec<Phase
                         Phase::Ground
                     } else if near_ceiling && caps.perches.is_some() {
                         Phase::Attached
-                    } else if caps.vtol.is_some() {
+                    } else if caps.vtol.is_some() && vtol_transition.is_none() {
                         Phase::Transition
                     } else if landed == Some(false) {
                         // The land detector says airborne: the current split is not motors
@@ -455,7 +467,7 @@ pub fn infer_for(signals: Signals<'_>, caps: &Capabilities) -> Option<(Vec<Phase
                 mid_runs += 1;
                 if caps.perches.is_some() {
                     Phase::Attached
-                } else if caps.vtol.is_some() {
+                } else if caps.vtol.is_some() && vtol_transition.is_none() {
                     Phase::Transition
                 } else {
                     Phase::Ground
@@ -466,10 +478,10 @@ pub fn infer_for(signals: Signals<'_>, caps: &Capabilities) -> Option<(Vec<Phase
         if mid_runs > 0 {
             let taken = if caps.perches.is_some() {
                 "attached; without altitude a landing in between would look the same"
-            } else if caps.vtol.is_some() {
+            } else if caps.vtol.is_some() && vtol_transition.is_none() {
                 "transition (VTOL); without altitude a landing in between would look the same"
             } else {
-                "landings (the vehicle neither perches nor is a VTOL)"
+                "landings (the vehicle does not perch, and is no VTOL or reports no transition)"
             };
             notes.push(format!(
                 "{mid_runs} idle period(s) between flying periods taken as {taken}"
@@ -493,12 +505,24 @@ pub fn infer_for(signals: Signals<'_>, caps: &Capabilities) -> Option<(Vec<Phase
     if signals.current_a.is_none() {
         notes.push("no current: attachment to the ceiling cannot be detected".to_owned());
     }
+    let vtol_state = vtol_transition.filter(|_| caps.vtol.is_some());
+    if let Some(vt) = vtol_state {
+        for (p, &t) in phases.iter_mut().zip(vt) {
+            if t && *p != Phase::Ground {
+                *p = Phase::Transition;
+            }
+        }
+    }
     if idle_airborne > 0 {
+        let vehicle = if caps.vtol.is_some() {
+            "the vehicle does not perch and its VTOL state says no transition"
+        } else {
+            "the vehicle neither perches nor is a VTOL"
+        };
         notes.push(format!(
             "{idle_airborne} sample(s) with current below the idle/flying split away from the \
-             ground, where the land detector says airborne, classified by vertical speed: the \
-             vehicle neither perches nor is a VTOL, so low current in the air is low-power \
-             flight, not motors off"
+             ground, where the land detector says airborne, classified by vertical speed: \
+             {vehicle}, so low current in the air is low-power flight, not motors off"
         ));
     }
     let fractions = PhaseFractions::of(&phases);
@@ -509,6 +533,7 @@ pub fn infer_for(signals: Signals<'_>, caps: &Capabilities) -> Option<(Vec<Phase
         split.map(|s| s.threshold),
         altitude_info,
         idle_airborne > 0,
+        vtol_state.is_some(),
     );
     let method = InferenceMethod {
         evidence,
@@ -534,6 +559,7 @@ fn evidence(
     split_a: Option<f64>,
     altitude: Option<(f64, f64, f64)>,
     idle_airborne: bool,
+    vtol_state: bool,
 ) -> Vec<PhaseEvidence> {
     let motors = match split_a {
         Some(a) => format!("current above {a:.2} A (motors on)"),
@@ -556,8 +582,7 @@ fn evidence(
     let speed = |what: &str| {
         if altitude.is_some() {
             let low = if idle_airborne {
-                ", or below it away from the ground (neither perching nor a VTOL, the motors \
-                 do not stop in the air)"
+                ", or below it where the land detector says airborne (low-power flight)"
             } else {
                 ""
             };
@@ -591,6 +616,11 @@ fn evidence(
                     "{idle} at the highest plateau (or between flying periods); the robot \
                      perches ({})",
                     caps.perches.as_deref().unwrap_or("")
+                ),
+                Phase::Transition if vtol_state => format!(
+                    "the autopilot's vtol_vehicle_status says transition or fixed-wing flight; \
+                     the vehicle is a VTOL ({})",
+                    caps.vtol.as_deref().unwrap_or("")
                 ),
                 Phase::Transition => format!(
                     "{idle} away from the ground; the vehicle is a VTOL ({})",
@@ -859,6 +889,53 @@ mod tests {
     }
 
     #[test]
+    fn transition_only_for_a_vtol_and_from_its_own_state_when_logged() {
+        // 10 Hz, current only: idle 5 s, flying 10 s, idle 10 s (in the air or landed?),
+        // flying 10 s, idle 5 s.
+        let t = time(400, 10.0);
+        let i: Vec<f64> = (0..400)
+            .map(|k| match k {
+                0..50 | 150..250 | 350.. => 0.3,
+                _ => 9.0,
+            })
+            .collect();
+        let signals = Signals {
+            time_s: &t,
+            current_a: Some(&i),
+            altitude_m: None,
+            landed: None,
+        };
+        let quad = Capabilities::default();
+        let (phases, _) = infer_for(signals, &quad).unwrap();
+        assert!(!phases.contains(&Phase::Transition) && !phases.contains(&Phase::Attached));
+        assert_eq!(phases[200], Phase::Ground); // a landing, not a perch
+        let vtol = Capabilities {
+            vtol: Some("MAV_TYPE 22".to_owned()),
+            ..Capabilities::default()
+        };
+        let (phases, source) = infer_for(signals, &vtol).unwrap();
+        assert_eq!(phases[200], Phase::Transition);
+        let PhaseSource::Inferred { method, .. } = source else {
+            panic!()
+        };
+        let e = method
+            .evidence
+            .iter()
+            .find(|e| e.phase == Phase::Transition)
+            .unwrap();
+        assert!(e.evidence.contains("MAV_TYPE 22"), "{e:?}");
+        // The autopilot's own VTOL state says transition at 10–12 s only.
+        let state: Vec<bool> = (0..400).map(|k| (100..120).contains(&k)).collect();
+        let (phases, _) = infer_vtol(signals, &vtol, Some(&state)).unwrap();
+        assert_eq!(phases[110], Phase::Transition);
+        assert_ne!(phases[200], Phase::Transition);
+        assert_eq!(
+            phases.iter().filter(|&&p| p == Phase::Transition).count(),
+            20
+        );
+    }
+
+    #[test]
     fn nothing_to_infer_from() {
         let t = time(10, 1.0);
         assert!(
@@ -866,7 +943,7 @@ mod tests {
                 time_s: &t,
                 current_a: None,
                 altitude_m: None,
-                landed: None
+                landed: None,
             })
             .is_none()
         );
@@ -876,7 +953,7 @@ mod tests {
                 time_s: &t,
                 current_a: Some(&short),
                 altitude_m: None,
-                landed: None
+                landed: None,
             })
             .is_none()
         );

@@ -744,8 +744,41 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
                 .unzip();
             crate::resample::hold(&t, &l, &time_s)
         });
+    // A VTOL's own state: PX4 ≥ 1.12 logs vehicle_vtol_state (1, 2: transition to fixed wing
+    // or multicopter; 4: fixed wing), older firmware vtol_in_trans_mode and vtol_in_rw_mode.
+    let vtol_transition = match log.instances("vtol_vehicle_status").first() {
+        Some(&i) => {
+            let rows = log.rows(
+                "vtol_vehicle_status",
+                i,
+                &[
+                    ("timestamp", true),
+                    ("vehicle_vtol_state", false),
+                    ("vtol_in_trans_mode", false),
+                    ("vtol_in_rw_mode", false),
+                ],
+                path,
+            )?;
+            let (t, v): (Vec<f64>, Vec<bool>) = rows
+                .iter()
+                .filter_map(|r| {
+                    let t = r.values[0]? / 1e6 - t0;
+                    let state = match (r.values[1], r.values[2], r.values[3]) {
+                        (Some(s), _, _) => matches!(s as u8, 1 | 2 | 4),
+                        (None, Some(tr), rw) => tr != 0.0 || rw == Some(0.0),
+                        (None, None, Some(rw)) => rw == 0.0,
+                        (None, None, None) => return None,
+                    };
+                    Some((t, state))
+                })
+                .unzip();
+            (!t.is_empty()).then(|| crate::resample::hold(&t, &v, &time_s))
+        }
+        None => None,
+    };
     Ok(Decoded {
         samples: Samples {
+            vtol_transition,
             time_s,
             voltage_v: chosen.voltage_v,
             current_a: chosen.current_a,
