@@ -485,11 +485,39 @@ fn battery_scale(format: &MessageFormat, label: &str) -> f64 {
     }
 }
 
+/// The cell count from the per-cell voltages (`BCL`, ArduPilot's `CURR_CELL` log structure):
+/// `NumCells` in older firmware, else the number of `V1`…`V14` between 1 and 5 V (mV).
+fn logged_cells(log: &DataFlash<'_>, path: &Path) -> Option<(u32, String)> {
+    if let Ok(rows) = log.rows("BCL", None, &[("NumCells", true)], path)
+        && let Some(c) = rows
+            .iter()
+            .filter_map(|r| r.values[0])
+            .find(|&c| (1.0..=30.0).contains(&c))
+    {
+        return Some((c as u32, "BCL.NumCells".to_owned()));
+    }
+    let labels: Vec<String> = (1..=14).map(|k| format!("V{k}")).collect();
+    let fields: Vec<(&str, bool)> = labels.iter().map(|l| (l.as_str(), false)).collect();
+    let rows = log.rows("BCL", None, &fields, path).ok()?;
+    rows.iter()
+        .map(|r| {
+            r.values
+                .iter()
+                .flatten()
+                .filter(|&&mv| (1000.0..=5000.0).contains(&mv))
+                .count()
+        })
+        .find(|&c| c > 0)
+        .map(|c| (c as u32, "BCL: cells with a voltage".to_owned()))
+}
+
 /// The battery tracks of a log: `BAT` per instance, `BAT2` (older firmware's second
-/// battery), then `CURR` (ArduCopter 3.x).
+/// battery), `CURR` (ArduCopter 3.x), then `BCL` (per-cell voltages, ArduPilot's
+/// `CURR_CELL` structure, whose `Volt` is the pack voltage, without current).
 fn battery_tracks(log: &DataFlash<'_>, path: &Path) -> Result<Vec<Track>, FlightLogError> {
     let mut tracks = Vec::new();
-    for name in ["BAT", "BAT2", "CURR"] {
+    let cells = logged_cells(log, path);
+    for name in ["BAT", "BAT2", "CURR", "BCL"] {
         let Some(format) = log.format(name) else {
             continue;
         };
@@ -549,7 +577,7 @@ fn battery_tracks(log: &DataFlash<'_>, path: &Path) -> Result<Vec<Track>, Flight
                 remaining: has_remaining
                     .then(|| col(3).map(|r| r.map_or(-1.0, |r| r / 100.0)).collect()),
                 warning: None,
-                cells: None,
+                cells: cells.clone(),
             });
         }
     }
@@ -715,7 +743,11 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
         hardware,
         ..LogInfo::default()
     };
-    let cells = estimate_cells_for(&chosen.voltage_v);
+    let cells = chosen
+        .info
+        .cells
+        .clone()
+        .or_else(|| estimate_cells_for(&chosen.voltage_v));
     if let Some((c, origin)) = &cells {
         info.set("cells", origin.clone(), |m| m.cells = Some(*c));
     }

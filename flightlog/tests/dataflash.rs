@@ -211,6 +211,56 @@ fn old_style_scaled_fields_and_time_ms() {
 }
 
 #[test]
+fn arducopter3_curr_in_centivolts_and_cell_voltages() {
+    // ArduCopter 3.x: no BAT; CURR with Volt and Curr as centivolts and centiamps ('h') and
+    // TimeMS; the per-cell voltages (log structure BCL, message BCL) with NumCells.
+    const CURR: u8 = 0x31;
+    const BCL: u8 = 0x32;
+    let mut w = DataFlashWriter::new();
+    w.define(
+        CURR,
+        "CURR",
+        "IhhhHfh",
+        "TimeMS,Throttle,Volt,Curr,Vcc,CurrTot,Volt2",
+    );
+    w.define(BCL, "BCL", "IBfHHH", "TimeMS,NumCells,Volt,V1,V2,V3");
+    for k in 0..20u32 {
+        let t = f64::from(k) * 100.0 + 5000.0;
+        w.write(CURR, &[t, 400.0, 1250.0, 1075.0, 5000.0, 0.0, 0.0]);
+        w.write(BCL, &[t, 3.0, 12.5, 4170.0, 4160.0, 4170.0]);
+    }
+    let f = parse(&w.finish()).unwrap();
+    assert_eq!(f.log.battery.as_ref().unwrap().battery, "CURR");
+    assert!((f.samples.voltage_v[0] - 12.5).abs() < 1e-12);
+    assert!((f.samples.current_a.as_ref().unwrap()[0] - 10.75).abs() < 1e-12);
+    assert!((f.samples.time_s[1] - 0.1).abs() < 1e-12);
+    assert_eq!(f.meta.cells, Some(3));
+    assert_eq!(f.metadata["cells"].source.to_string(), "log (BCL.NumCells)");
+
+    // BCL alone: the pack voltage, no current.
+    let mut w = DataFlashWriter::new();
+    w.define(BCL, "BCL", "IBfHHH", "TimeMS,NumCells,Volt,V1,V2,V3");
+    for k in 0..20u32 {
+        w.write(
+            BCL,
+            &[f64::from(k) * 100.0, 3.0, 12.5, 4170.0, 4160.0, 4170.0],
+        );
+    }
+    let f = parse(&w.finish()).unwrap();
+    assert_eq!(f.log.battery.as_ref().unwrap().battery, "BCL");
+    assert!(f.samples.current_a.is_none());
+
+    // A 3-cell pack reading 30 V is skipped with the reason.
+    let mut w = DataFlashWriter::new();
+    w.define(BCL, "BCL", "IBfHHH", "TimeMS,NumCells,Volt,V1,V2,V3");
+    for k in 0..20u32 {
+        w.write(BCL, &[f64::from(k) * 100.0, 3.0, 30.0, 0.0, 0.0, 0.0]);
+    }
+    let e = parse(&w.finish()).unwrap_err();
+    assert!(e.to_string().contains("implausible for 3 cells"), "{e}");
+}
+
+#[test]
 fn bad_definitions_and_missing_battery() {
     // A BAT whose FMT length disagrees with its format: its messages are skipped by length,
     // and reading it names the FMT's offset.
