@@ -2,7 +2,7 @@
 //! the ULog and DataFlash readers.
 //!
 //! A format reader turns each battery it finds (ULog `battery_status` instance, DataFlash `BAT`
-//! instance, `BAT2`, or ArduCopter 3.x `CURR`) into a [`Track`]. [`choose`] then applies the
+//! instance, `BAT2`, ArduCopter 3.x `CURR`, per-cell `BCL`) into a track; one function then applies the
 //! same checks to every track, in order, and keeps the first that passes:
 //!
 //! 1. samples the battery reports as not connected (ULog `connected = 0`) are dropped; a

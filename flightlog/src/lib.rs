@@ -11,14 +11,25 @@
 //!   documented platform defaults ([`crazyflie`]);
 //! - a PX4 ULog `.ulg` ([`ulog`]) or an ArduPilot DataFlash `.bin` ([`dataflash`]).
 //!
-//! Metadata ([`FlightMeta`]) comes from a sidecar `NAME.toml` merged over the folder's
-//! `flights.toml` ([`meta`]). A log without phases gets them inferred from its current and
-//! altitude, and says how ([`PhaseSource::Inferred`], [`phase`]). One bad flight never stops
-//! the others: it is listed in [`FlightSet::skipped`] with the reason.
+//! A binary log's batteries (every ULog `battery_status` instance; DataFlash `BAT`, `BAT2`,
+//! ArduCopter 3.x `CURR` and `BCL`) go through one check ([`battery`]): a battery that is not
+//! connected, or whose voltage is implausible for its cell count, is skipped with that reason
+//! ([`SkipReason`], [`FlightLogError::NoUsableBattery`]). What the log says about itself —
+//! firmware, vehicle type, metadata from its own parameters — is its [`LogInfo`].
+//!
+//! Metadata ([`FlightMeta`]) is layered, each value with its source ([`Flight::metadata`],
+//! [`MetaSource`]): platform defaults, then the log's own parameters, then the folder's
+//! `flights.toml`, then the sidecar `NAME.toml` ([`meta`]). A log without phases gets them
+//! inferred from its current, altitude and land detector for the vehicle it is: `attached`
+//! only for a robot whose metadata says `perches = true`, `transition` only for a VTOL; each
+//! phase with its evidence ([`PhaseSource::Inferred`], [`phase`]). One bad flight never stops
+//! the others: it is listed in [`FlightSet::skipped`] with the reason. [`summary`] computes what
+//! `hoverbench flights` prints.
 //!
 //! Main types: [`FlightSet`] (a folder read), [`Flight`] (one log: [`Samples`], [`FlightMeta`],
-//! [`PhaseSource`]), [`Phase`], [`FlightLogError`] (every error names the file and the line or
-//! byte offset and the field). The library never prints and never panics on any input.
+//! [`PhaseSource`], [`LogInfo`]), [`Phase`], [`FlightSummary`], [`FlightLogError`] (every error
+//! names the file and the line or byte offset and the field). The library never prints and
+//! never panics on any input.
 //!
 //! ```
 //! use std::path::Path;
@@ -365,7 +376,9 @@ impl Flight {
     }
 }
 
-/// One message of a binary log, reduced to the numeric fields asked for.
+/// One message of a binary log, reduced to the numeric fields asked for, as the
+/// first-instance `columns` readers return it (`NaN` for a missing field; [`Row`], from
+/// `rows`, says `None` instead).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Record {
     /// Byte offset of the message in the file.

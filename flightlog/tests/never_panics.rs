@@ -31,6 +31,10 @@ fn check(bytes: &[u8], format: LogFormat) {
         if let Some(p) = &s.phase {
             assert_eq!(p.len(), s.len());
         }
+        let summary = flightlog::FlightSummary::of(&f);
+        assert_eq!(summary.samples, s.len());
+        assert!(summary.voltage_v[0] <= summary.voltage_v[1]);
+        let _ = f.plausibility_warnings();
     }
 }
 
@@ -165,14 +169,44 @@ proptest! {
         for (c, a, l) in [
             (true, true, true), (true, false, false), (false, true, false), (true, true, false), (false, false, true),
         ] {
-            if let Some((phases, _)) = phase::infer(Signals {
+            let signals = Signals {
                 time_s: &t,
                 current_a: c.then_some(&current[..]),
                 altitude_m: a.then_some(&altitude[..]),
                 landed: l.then_some(&landed[..]),
-            }) {
+            };
+            if let Some((phases, _)) = phase::infer(signals) {
                 prop_assert_eq!(phases.len(), t.len());
             }
+            // A vehicle that neither perches nor is a VTOL never gets those phases.
+            if let Some((phases, _)) = phase::infer_for(signals, &phase::Capabilities::default()) {
+                prop_assert_eq!(phases.len(), t.len());
+                prop_assert!(!phases.contains(&flightlog::Phase::Attached));
+                prop_assert!(!phases.contains(&flightlog::Phase::Transition));
+            }
+            let vtol = phase::Capabilities { vtol: Some("test".into()), ..Default::default() };
+            if let Some((phases, _)) = phase::infer_vtol(signals, &vtol, Some(&landed[..])) {
+                prop_assert_eq!(phases.len(), t.len());
+                prop_assert!(!phases.contains(&flightlog::Phase::Attached));
+            }
         }
+    }
+
+    #[test]
+    fn natural_order_is_a_total_order_by_number(
+        a in "[a-c0-9_]{0,8}", b in "[a-c0-9_]{0,8}", c in "[a-c0-9_]{0,8}",
+        x in 0u32..100_000, y in 0u32..100_000,
+    ) {
+        use std::cmp::Ordering;
+        use flightlog::natural_cmp;
+        prop_assert_eq!(natural_cmp(&a, &b), natural_cmp(&b, &a).reverse());
+        prop_assert_eq!(natural_cmp(&a, &b) == Ordering::Equal, a == b);
+        if natural_cmp(&a, &b) != Ordering::Greater && natural_cmp(&b, &c) != Ordering::Greater {
+            prop_assert!(natural_cmp(&a, &c) != Ordering::Greater);
+        }
+        prop_assert_eq!(
+            natural_cmp(&format!("flight{x}"), &format!("flight{y}")),
+            x.cmp(&y).then_with(|| Ordering::Equal)
+        );
     }
 }
