@@ -139,6 +139,45 @@ fn sidecar_overrides_the_log_and_says_so() {
 }
 
 #[test]
+fn a_voltage_implausible_for_the_cells_of_the_metadata_is_skipped() {
+    let dir = tempfile::tempdir().unwrap();
+    let rows: String = (0..20).map(|k| format!("{}.0,1.2,0.5\n", k)).collect();
+    std::fs::write(
+        dir.path().join("usb.csv"),
+        format!("time_s,voltage_v,current_a\n{rows}"),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("ok.csv"),
+        format!(
+            "time_s,voltage_v,current_a\n{}",
+            rows.replace(",1.2,", ",11.8,")
+        ),
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("flights.toml"), "cells = 3\n").unwrap();
+    let out = Command::cargo_bin("hoverbench")
+        .unwrap()
+        .args(["flights", "--json"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["flights"].as_array().unwrap().len(), 1);
+    assert_eq!(v["flights"][0]["name"], "ok");
+    let reason = v["skipped"][0]["reason"].as_str().unwrap();
+    assert!(
+        reason.contains("implausible for 3 cells") && reason.contains("folder (flights.toml)"),
+        "{reason}"
+    );
+}
+
+#[test]
 fn nothing_readable_is_an_error_after_the_reasons() {
     let out = flights(&["ulog/flightreview_battery_disconnected.ulg"]);
     assert_eq!(out.status.code(), Some(2));

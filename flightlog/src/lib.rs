@@ -327,6 +327,47 @@ impl Flight {
         out
     }
 
+    /// Checks the battery voltage against the cell count of the metadata (which a sidecar or
+    /// the folder may have set after the log was read): a median voltage outside
+    /// [`battery::MIN_CELL_V`]–[`battery::MAX_CELL_V`] per cell is
+    /// [`FlightLogError::NoUsableBattery`] with [`SkipReason::ImplausibleVoltage`].
+    /// [`FlightSet`] skips such a flight.
+    pub fn check_battery(&self) -> Result<(), FlightLogError> {
+        let Some(cells) = self.meta.cells else {
+            return Ok(());
+        };
+        let mut sorted = self.samples.voltage_v.clone();
+        sorted.sort_by(f64::total_cmp);
+        let Some(&median_v) = sorted.get(sorted.len() / 2) else {
+            return Ok(());
+        };
+        let c = f64::from(cells);
+        let range_v = [battery::MIN_CELL_V * c, battery::MAX_CELL_V * c];
+        if (range_v[0]..=range_v[1]).contains(&median_v) {
+            return Ok(());
+        }
+        let battery = self
+            .log
+            .battery
+            .as_ref()
+            .map_or_else(|| "voltage_v".to_owned(), |b| b.battery.clone());
+        let source = self
+            .metadata
+            .get("cells")
+            .map_or_else(String::new, |v| format!(" (cells from {})", v.source));
+        Err(FlightLogError::NoUsableBattery {
+            path: self.source.clone(),
+            batteries: vec![SkippedBattery {
+                battery: format!("{battery}{source}"),
+                reason: SkipReason::ImplausibleVoltage {
+                    median_v,
+                    cells: Some(cells),
+                    range_v,
+                },
+            }],
+        })
+    }
+
     /// What the vehicle can do, from its metadata: perch (`perches = true`) and fly as a VTOL
     /// (`vehicle = "vtol"`), each with its source.
     pub fn capabilities(&self) -> Capabilities {

@@ -457,6 +457,67 @@ mod tests {
     }
 
     #[test]
+    fn layers_resolve_with_their_sources() {
+        let log = MetaLayer {
+            meta: FlightMeta {
+                cells: Some(4),
+                battery_energy_wh: Some(74.0),
+                capacity_mah: Some(5000.0),
+                ..FlightMeta::default()
+            },
+            source: MetaSource::Log {
+                origin: "log".to_owned(),
+            },
+            origins: [("cells".to_owned(), "BAT1_N_CELLS".to_owned())].into(),
+        };
+        let folder = MetaLayer::new(
+            FlightMeta {
+                cells: Some(6),
+                perches: Some(true),
+                ..FlightMeta::default()
+            },
+            MetaSource::Folder {
+                path: "/f/flights.toml".into(),
+            },
+        );
+        let sidecar = MetaLayer::new(
+            FlightMeta {
+                battery_energy_density_wh_per_kg: Some(150.0),
+                ..FlightMeta::default()
+            },
+            MetaSource::Sidecar {
+                path: "/f/a.toml".into(),
+            },
+        );
+        let (meta, values) = FlightMeta::resolve(&[log, folder, sidecar]);
+        assert_eq!(meta.cells, Some(6));
+        assert_eq!(values["cells"].source.to_string(), "folder (flights.toml)");
+        assert_eq!(values["capacity_mah"].source.to_string(), "log (log)");
+        assert_eq!(values["perches"].value, toml::Value::Boolean(true));
+        // The sidecar gives the battery energy another way: the log's value is gone, not
+        // reported with a stale source.
+        assert_eq!(meta.battery_energy_wh, None);
+        assert!(!values.contains_key("battery_energy_wh"));
+        assert_eq!(
+            values["battery_energy_density_wh_per_kg"]
+                .source
+                .to_string(),
+            "sidecar (a.toml)"
+        );
+        let (_, only_log) = FlightMeta::resolve(&[MetaLayer {
+            meta: FlightMeta {
+                cells: Some(4),
+                ..FlightMeta::default()
+            },
+            source: MetaSource::Log {
+                origin: "log".to_owned(),
+            },
+            origins: [("cells".to_owned(), "BAT1_N_CELLS".to_owned())].into(),
+        }]);
+        assert_eq!(only_log["cells"].source.to_string(), "log (BAT1_N_CELLS)");
+    }
+
+    #[test]
     fn merge_takes_battery_energy_as_one_quantity() {
         let defaults = FlightMeta {
             battery_energy_density_wh_per_kg: Some(150.0),

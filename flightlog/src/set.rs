@@ -266,6 +266,7 @@ fn read_one(
         ));
     }
     flight.set_metadata(&below, &above);
+    flight.check_battery()?;
     if flight.format == LogFormat::Crazyflie
         && let Some(plan) = crazyflie::plan_path(path)
     {

@@ -25,7 +25,7 @@ fn dataflash() -> Vec<u8> {
     let mut w = DataFlashWriter::new();
     w.define(150, "BAT", "QBff", "TimeUS,Instance,Volt,Curr");
     for k in 0..30 {
-        w.write(150, &[f64::from(k) * 1e5, 0.0, 16.0, 12.0]);
+        w.write(150, &[f64::from(k) * 1e5, 0.0, 12.0, 12.0]);
     }
     w.finish()
 }
@@ -71,6 +71,14 @@ fn mixed_folder() {
         "cf.csv",
         "x_estimate,y_estimate,z_estimate,battery_voltage\n0,0,0,4.1\n0,0,0,4.1\n0,0,0.5,4.0\n",
     );
+    // The folder's 3 cells do not fit a Crazyflie's 4 V: its sidecar says 1 cell; a second
+    // Crazyflie log without one is skipped, saying why.
+    write(d, "cf.toml", "cells = 1\n");
+    write(
+        d,
+        "cf3.csv",
+        "x_estimate,y_estimate,z_estimate,battery_voltage\n0,0,0,4.1\n0,0,0,4.1\n0,0,0.5,4.0\n",
+    );
     write(d, "orphan.toml", "cells = 2\n");
     write(d, "README.md", "not a flight");
 
@@ -84,7 +92,13 @@ fn mixed_folder() {
         .collect();
     assert_eq!(
         skipped,
-        ["backwards.csv", "broken.bin", "typo.csv", "orphan.toml"]
+        [
+            "backwards.csv",
+            "broken.bin",
+            "cf3.csv",
+            "typo.csv",
+            "orphan.toml"
+        ]
     );
 
     // Reasons name the file and where.
@@ -139,11 +153,26 @@ fn mixed_folder() {
     );
     // The folder gives a density, which replaces the platform's energy.
     assert_eq!(cf.meta.battery_energy_wh, None);
+    assert_eq!(cf.meta.cells, Some(1));
+    assert_eq!(cf.metadata["cells"].source.to_string(), "sidecar (cf.toml)");
+    assert_eq!(
+        cf.metadata["payload_mass_kg"].source.to_string(),
+        "default (Crazyflie 2.0 platform)"
+    );
+    assert_eq!(
+        cf.metadata["structure_mass_kg"].source.to_string(),
+        "folder (flights.toml)"
+    );
+    let why = reason("cf3.csv");
+    assert!(
+        why.contains("implausible for 3 cells") && why.contains("folder (flights.toml)"),
+        "{why}"
+    );
 
     assert_eq!(set.get("px4").unwrap().format, LogFormat::Ulog);
     let copter = set.get("copter").unwrap();
     assert_eq!(copter.format, LogFormat::DataFlash);
-    assert_eq!(copter.samples.power_w().unwrap()[0], 16.0 * 12.0);
+    assert_eq!(copter.samples.power_w().unwrap()[0], 12.0 * 12.0);
 }
 
 #[test]
