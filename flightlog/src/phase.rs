@@ -383,10 +383,11 @@ pub fn infer_vtol(
                         Phase::Hover
                     }
                 };
-                // Motors off: on the ground when either the smoothed or the raw altitude is.
+                // Motors off: on the ground when the land detector says so, or without one when
+                // either the smoothed or the raw altitude is near the ground.
                 let raw_near_ground = signals.altitude_m.is_some_and(|a| a[i] <= ground + band);
                 if !on {
-                    if on_ground || near_ground || raw_near_ground {
+                    if landed.unwrap_or(near_ground || raw_near_ground) {
                         Phase::Ground
                     } else if near_ceiling && caps.perches.is_some() {
                         Phase::Attached
@@ -520,9 +521,9 @@ pub fn infer_vtol(
             "the vehicle neither perches nor is a VTOL"
         };
         notes.push(format!(
-            "{idle_airborne} sample(s) with current below the idle/flying split away from the \
-             ground, where the land detector says airborne, classified by vertical speed: \
-             {vehicle}, so low current in the air is low-power flight, not motors off"
+            "{idle_airborne} sample(s) with current below the idle/flying split where the land \
+             detector says airborne classified by vertical speed: {vehicle}, so low current in \
+             the air is low-power flight, not motors off"
         ));
     }
     let fractions = PhaseFractions::of(&phases);
