@@ -63,6 +63,9 @@ pub enum ReportError {
         /// The fit's reason.
         source: fit::FitError,
     },
+    /// A sweep could not be turned into a curve or a thrust limit.
+    #[error(transparent)]
+    Sweep(#[from] fit::sweeps::SweepFitError),
     /// A file or folder could not be written.
     #[error("{path}: {source}")]
     Io {

@@ -6,7 +6,9 @@ use std::path::{Path, PathBuf};
 
 use estimator::file::ParamsFile;
 use estimator::{Battery, Eq8Form, MissionOptions, Payload};
+use fit::sweeps::LimitSweep;
 use import::Table;
+use import::stand::{StandLog, StandOptions};
 
 use crate::{
     LimitMarker, MeasuredFlight, MissionInput, NamedBattery, PayloadStudy, ReportError,
@@ -88,31 +90,16 @@ fn read(path: &Path) -> Result<(Table, String), ReportError> {
     Ok((table, import::sha256_hex(&bytes)))
 }
 
+/// The thrust limit of a session's limit sweep, extracted as `hoverbench fit --limit` and the
+/// characterise session do ([`fit::sweeps::LimitSweep`]).
 fn limit_from_sweep(path: &Path) -> Result<LimitMarker, ReportError> {
-    let (t, _) = read(path)?;
-    let std = if t.has("thrust_std_g") {
-        Some(t.column("thrust_std_g")?)
-    } else {
-        None
-    };
-    let opts = fit::ThrustLimitOptions {
-        thrust_std_g: std.as_deref(),
-        ..Default::default()
-    };
-    let l = fit::thrust_limit(&t.column("throttle")?, &t.column("thrust_g")?, &opts).map_err(
-        |source| ReportError::Fit {
-            context: format!("extracting the thrust limit from {}", path.display()),
-            source,
-        },
-    )?;
-    let v = t
-        .column("voltage_v")
-        .ok()
-        .map(|v| v.iter().sum::<f64>() / v.len() as f64);
+    let log = StandLog::read(path, &StandOptions::default())?;
+    let sweep = LimitSweep::from_stand(&log, None)?;
+    let l = sweep.thrust_limit()?;
     Ok(LimitMarker {
         per_rotor_g: l.thrust_g,
         uncertainty_g: l.uncertainty_g,
-        supply_voltage_v: v,
+        supply_voltage_v: sweep.supply_voltage_v,
         note: Some(format!("from {}", path.display())),
     })
 }

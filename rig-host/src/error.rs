@@ -101,6 +101,12 @@ pub enum HostError {
         #[source]
         source: Box<fit::FitError>,
     },
+    /// The sweeps could not be fitted.
+    #[error("fitting the session's sweeps")]
+    SweepFit(#[from] fit::sweeps::SweepFitError),
+    /// An output file could not be written.
+    #[error(transparent)]
+    Write(#[from] outfile::WriteError),
     /// An argument or setting is out of range.
     #[error("invalid setting: {0}")]
     Invalid(String),

@@ -13,12 +13,11 @@
 //! | `summary.txt`, `summary.json` | what was done and found |
 //! | `report/` | figures, written by `hoverbench report` |
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
-use estimator::file::{ParamsFile, Provenance};
-use fit::export::{CurveLabels, LimitRecord};
+use estimator::file::ParamsFile;
+use fit::sweeps::{LimitSweep, NominalSweep, SweepFitOptions};
 use import::stand::{StandLog, StandOptions};
 use rig_protocol::{Clock, Rig};
 
@@ -92,34 +91,8 @@ impl SessionConfig {
     }
 }
 
-/// The fit of a session.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct FitSummary {
-    /// Steps fitted.
-    pub n_points: usize,
-    /// Rows skipped as invalid (supply not regulating).
-    pub skipped_invalid: usize,
-    /// Monomial coefficients of power (W) in thrust (g), ascending.
-    pub coefficients: Vec<f64>,
-    /// Thrust range of the fit, g.
-    pub valid_range_g: (f64, f64),
-    /// RMS residual, W.
-    pub rmse_w: f64,
-    /// R².
-    pub r_squared: f64,
-    /// Mean voltage of the nominal sweep, V.
-    pub supply_voltage_v: Option<f64>,
-    /// Thrust limit per rotor, g.
-    pub thrust_limit_g: Option<f64>,
-    /// Its uncertainty, g.
-    pub thrust_limit_uncertainty_g: Option<f64>,
-    /// Thrust limit of all rotors, kg.
-    pub thrust_limit_total_kg: Option<f64>,
-    /// Mean voltage of the limit sweep, V.
-    pub limit_voltage_v: Option<f64>,
-    /// Fit warnings.
-    pub warnings: Vec<String>,
-}
+/// The fit of a session (the summary of [`fit::sweeps::fit_sweeps`]).
+pub use fit::sweeps::FitSummary;
 
 /// Summary of one sweep.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -170,16 +143,14 @@ pub struct SessionSummary {
     pub files: Vec<String>,
 }
 
-/// Writes `bytes` to `path` through a temporary file, fsync and rename.
+/// Writes `bytes` to `path` atomically (`outfile::write_atomic`: temporary file in the same
+/// folder, fsync, rename; the temporary file is removed on error).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), HostError> {
-    let tmp = path.with_extension("tmp~");
-    let mut f = std::fs::File::create(&tmp).map_err(|e| HostError::io(&tmp, e))?;
-    f.write_all(bytes).map_err(|e| HostError::io(&tmp, e))?;
-    f.sync_all().map_err(|e| HostError::io(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| HostError::io(path, e))
+    outfile::write_atomic(path, bytes).map_err(HostError::from)
 }
 
-/// Fits a nominal sweep and a limit sweep as `hoverbench fit SWEEP --limit LIMIT` does.
+/// Fits a nominal sweep and a limit sweep through [`fit::sweeps::fit_sweeps`], as
+/// `hoverbench fit SWEEP --limit LIMIT` does.
 pub fn fit_sweeps(
     sweep: &Path,
     limit: &Path,
@@ -192,64 +163,16 @@ pub fn fit_sweeps(
             source: Box::new(source),
         })
     };
-    let nominal = read(sweep)?;
-    let power = nominal
-        .column(|s| s.power_w)
-        .ok_or_else(|| HostError::Invalid(format!("{}: no power column", sweep.display())))?;
-    let thrust = nominal.thrust_g();
-    let fitted = fit::fit_polynomial(&thrust, &power, degree).map_err(|source| HostError::Fit {
-        what: format!("power against thrust in {}", sweep.display()),
-        source: Box::new(source),
-    })?;
-    let lim = read(limit)?;
-    let throttle = lim
-        .column(|s| s.throttle)
-        .ok_or_else(|| HostError::Invalid(format!("{}: no throttle column", limit.display())))?;
-    let std = lim.column(|s| s.thrust_std_g);
-    let opts = fit::ThrustLimitOptions {
-        thrust_std_g: std.as_deref(),
-        ..Default::default()
-    };
-    let l =
-        fit::thrust_limit(&throttle, &lim.thrust_g(), &opts).map_err(|source| HostError::Fit {
-            what: format!("thrust limit of {}", limit.display()),
-            source: Box::new(source),
-        })?;
-    let limit_v = lim.mean_voltage_v();
-    let record = LimitRecord {
-        limit: l,
-        supply_voltage_v: limit_v.unwrap_or(f64::NAN),
-    };
-    let provenance = Provenance {
-        input_file: sweep.display().to_string(),
-        input_sha256: import::sha256_hex(&nominal.bytes),
-        limit_input_file: Some(limit.display().to_string()),
-        limit_input_sha256: Some(import::sha256_hex(&lim.bytes)),
-        created: jiff::Timestamp::now().to_string(),
+    let nominal = NominalSweep::from_stand(&read(sweep)?, None)?;
+    let limit = LimitSweep::from_stand(&read(limit)?, None)?;
+    let opts = SweepFitOptions {
+        degree,
+        rotors,
         tool: format!("hoverbench rig-host {}", env!("CARGO_PKG_VERSION")),
+        created: jiff::Timestamp::now().to_string(),
     };
-    let labels = CurveLabels {
-        x: "thrust_g",
-        y: "power_w",
-        supply_voltage_v: nominal.mean_voltage_v(),
-    };
-    let file = fit::export::params_file(&fitted, &labels, rotors, Some(&record), provenance);
-    let stats = fitted.stats();
-    let summary = FitSummary {
-        n_points: stats.n_points,
-        skipped_invalid: nominal.skipped_invalid,
-        coefficients: fitted.monomial_coefficients(),
-        valid_range_g: fitted.domain(),
-        rmse_w: stats.rmse,
-        r_squared: stats.r_squared,
-        supply_voltage_v: nominal.mean_voltage_v(),
-        thrust_limit_g: Some(l.thrust_g),
-        thrust_limit_uncertainty_g: Some(l.uncertainty_g),
-        thrust_limit_total_kg: Some(l.thrust_g * f64::from(rotors) / 1000.0),
-        limit_voltage_v: limit_v,
-        warnings: fitted.warnings().iter().map(ToString::to_string).collect(),
-    };
-    Ok((file, summary))
+    let done = fit::sweeps::fit_sweeps(&nominal, Some(&limit), &opts)?;
+    Ok((done.params, done.summary))
 }
 
 /// Runs one sweep of a session into `csv` (resuming or skipping it as the folder says).
