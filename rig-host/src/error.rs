@@ -101,6 +101,15 @@ pub enum HostError {
         #[source]
         source: Box<fit::FitError>,
     },
+    /// Another run holds the session folder.
+    #[error(
+        "{} is in use by another hoverbench run (its .lock is held): wait for it to finish or stop it; two runs would interleave their rows",
+        dir.display()
+    )]
+    Locked {
+        /// The session folder.
+        dir: PathBuf,
+    },
     /// The sweeps could not be fitted.
     #[error("fitting the session's sweeps")]
     SweepFit(#[from] fit::sweeps::SweepFitError),

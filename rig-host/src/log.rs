@@ -206,7 +206,8 @@ impl LogHeader {
         s
     }
 
-    fn parse(text: &str) -> Self {
+    /// Reads the `# key: value` header lines of a log's text.
+    pub fn parse(text: &str) -> Self {
         let mut h = Self::default();
         for l in text.lines() {
             let Some(c) = l.strip_prefix('#') else {

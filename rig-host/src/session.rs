@@ -91,6 +91,76 @@ impl SessionConfig {
     }
 }
 
+impl SessionConfig {
+    /// Checks every setting before anything moves: a bad degree, stream rate or step fails
+    /// here, not after both sweeps have run.
+    pub fn validate(&self) -> Result<(), HostError> {
+        if self.degree > fit::MAX_DEGREE {
+            return Err(HostError::Invalid(format!(
+                "degree {} is above the highest supported, {}",
+                self.degree,
+                fit::MAX_DEGREE
+            )));
+        }
+        if self.rotors == 0 {
+            return Err(HostError::Invalid("rotor count 0".into()));
+        }
+        for (what, c) in [("nominal", &self.nominal), ("limit", &self.limit)] {
+            c.validate()
+                .map_err(|e| HostError::Invalid(format!("{what} sweep: {e}")))?;
+        }
+        if !matches!(self.nominal.kind, SweepKind::Nominal { .. }) {
+            return Err(HostError::Invalid(
+                "the nominal sweep must be thrust-targeted".into(),
+            ));
+        }
+        if !matches!(self.limit.kind, SweepKind::Limit { .. }) {
+            return Err(HostError::Invalid(
+                "the limit sweep must step the throttle".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// An advisory lock on a session folder (`DIR/.lock`, `flock`): two `characterise` runs on
+/// one folder would interleave their rows. Released when dropped (or when the process dies).
+#[derive(Debug)]
+pub struct SessionLock {
+    _file: std::fs::File,
+}
+
+/// The lock file in a session folder.
+pub const LOCK_FILE: &str = ".lock";
+
+impl SessionLock {
+    /// Takes the lock, or says that another run holds it.
+    pub fn acquire(dir: &Path) -> Result<Self, HostError> {
+        std::fs::create_dir_all(dir).map_err(|e| HostError::io(dir, e))?;
+        let path = dir.join(LOCK_FILE);
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&path)
+            .map_err(|e| HostError::io(&path, e))?;
+        #[cfg(unix)]
+        {
+            use rustix::fs::{FlockOperation, flock};
+            match flock(&file, FlockOperation::NonBlockingLockExclusive) {
+                Ok(()) => {}
+                Err(rustix::io::Errno::WOULDBLOCK) => {
+                    return Err(HostError::Locked {
+                        dir: dir.to_owned(),
+                    });
+                }
+                Err(e) => return Err(HostError::io(&path, e.into())),
+            }
+        }
+        Ok(Self { _file: file })
+    }
+}
+
 /// The fit of a session (the summary of [`fit::sweeps::fit_sweeps`]).
 pub use fit::sweeps::FitSummary;
 
@@ -105,20 +175,21 @@ pub struct SweepSummary {
     pub resumed_steps: usize,
     /// How it ended.
     pub end: String,
-    /// Rig time of this run, s (0 when it was already complete).
+    /// Rig time of the whole session, s: this run's plus what the session's earlier
+    /// `summary.json` recorded (a run interrupted before its summary is not counted).
     pub rig_time_s: f64,
     /// Highest thrust logged, g.
     pub max_thrust_g: f64,
 }
 
 impl SweepSummary {
-    fn of(rows: &[StepRecord], outcome: Option<&SweepOutcome>) -> Self {
+    fn of(rows: &[StepRecord], outcome: Option<&SweepOutcome>, earlier_s: f64) -> Self {
         Self {
             steps: rows.len(),
             valid_steps: rows.iter().filter(|r| r.valid).count(),
             resumed_steps: outcome.map_or(rows.len(), |o| o.resumed_steps),
             end: outcome.map_or("complete (earlier run)".into(), |o| o.end.to_string()),
-            rig_time_s: outcome.map_or(0.0, |o| o.rig_time_s),
+            rig_time_s: earlier_s + outcome.map_or(0.0, |o| o.rig_time_s),
             max_thrust_g: rows.iter().map(|r| r.thrust_g).fold(0.0, f64::max),
         }
     }
@@ -228,6 +299,31 @@ where
     Ok((o.rows.clone(), Some(o)))
 }
 
+/// What an earlier run of the session recorded in its `summary.json`.
+#[derive(Debug, Default)]
+struct Earlier {
+    nominal_s: f64,
+    limit_s: f64,
+    calibration: String,
+}
+
+impl Earlier {
+    fn read(dir: &Path) -> Self {
+        let Ok(text) = std::fs::read_to_string(dir.join(files::SUMMARY_JSON)) else {
+            return Self::default();
+        };
+        let Ok(v) = serde_json::from_str::<serde_json::Value>(&text) else {
+            return Self::default();
+        };
+        let time = |k: &str| v[k]["rig_time_s"].as_f64().unwrap_or(0.0);
+        Self {
+            nominal_s: time("nominal"),
+            limit_s: time("limit"),
+            calibration: v["calibration"].as_str().unwrap_or_default().to_owned(),
+        }
+    }
+}
+
 /// Checks that `dir` can take a new session (it holds none), unless resuming.
 pub fn check_session_dir(dir: &Path, resume: bool) -> Result<(), HostError> {
     let taken = [files::SWEEP, files::LIMIT, files::PARAMS]
@@ -256,10 +352,15 @@ pub fn characterise<R: Rig>(
 where
     R::Error: LinkError,
 {
+    config.validate()?;
     let dir = &config.dir;
     check_session_dir(dir, config.resume)?;
-    std::fs::create_dir_all(dir).map_err(|e| HostError::io(dir, e))?;
+    let _lock = SessionLock::acquire(dir)?;
     let p = |name: &str| dir.join(name);
+    // A finished session resumed: nothing moves, nothing is calibrated again.
+    let earlier = Earlier::read(dir);
+    let finished =
+        config.resume && log::is_complete(&p(files::SWEEP)) && log::is_complete(&p(files::LIMIT));
     let err = |during: &'static str| {
         move |e: R::Error| HostError::Rig {
             during,
@@ -270,7 +371,11 @@ where
     let first_run = !p(files::SWEEP).exists();
     let uncalibrated = rig.status().map_err(err("status"))?.calibration_points == 0;
     let calibration = match placer {
-        Some(placer) if (first_run || uncalibrated) && !config.calibration_masses_g.is_empty() => {
+        Some(placer)
+            if !finished
+                && (first_run || uncalibrated)
+                && !config.calibration_masses_g.is_empty() =>
+        {
             observer.event(SweepEvent::Note("calibrating the load cell"));
             calibrate(
                 rig,
@@ -284,10 +389,26 @@ where
         _ => String::new(),
     };
     let status = rig.status().map_err(err("status"))?;
-    let calibration = if calibration.is_empty() {
+    let calibration = if calibration.is_empty() && finished && !earlier.calibration.is_empty() {
+        earlier.calibration.clone()
+    } else if calibration.is_empty() {
         format!("kept by the rig ({} points)", status.calibration_points)
     } else {
         calibration
+    };
+    // A finished session keeps the calibration its logs were taken with.
+    let calibration_points = if finished {
+        std::fs::read_to_string(p(files::SWEEP))
+            .ok()
+            .and_then(|t| {
+                log::LogHeader::parse(&t)
+                    .get("calibration_points")?
+                    .parse()
+                    .ok()
+            })
+            .unwrap_or(status.calibration_points)
+    } else {
+        status.calibration_points
     };
     let supply_id = supply.identity();
     let mut done = Vec::new();
@@ -304,13 +425,7 @@ where
             cfg.voltage_v,
             p(csv).display()
         )));
-        let header = sweep_header(
-            cfg,
-            &identity,
-            status.calibration_points,
-            &calibration,
-            &supply_id,
-        );
+        let header = sweep_header(cfg, &identity, calibration_points, &calibration, &supply_id);
         let r = session_sweep(
             rig,
             clock,
@@ -361,8 +476,8 @@ where
         bench: config.bench.clone(),
         dir: dir.display().to_string(),
         calibration,
-        nominal: SweepSummary::of(&nominal_rows, nominal.as_ref()),
-        limit: SweepSummary::of(&limit_rows, limit.as_ref()),
+        nominal: SweepSummary::of(&nominal_rows, nominal.as_ref(), earlier.nominal_s),
+        limit: SweepSummary::of(&limit_rows, limit.as_ref(), earlier.limit_s),
         fit,
         files: done,
     };
@@ -465,4 +580,33 @@ pub fn summary_text(s: &SessionSummary, nominal: &[StepRecord], limit: &[StepRec
         );
     }
     t
+}
+
+#[cfg(test)]
+mod lock_tests {
+    use super::*;
+
+    #[test]
+    fn a_session_folder_has_one_holder_at_a_time() {
+        let d = tempfile::tempdir().unwrap();
+        let first = SessionLock::acquire(d.path()).unwrap();
+        let err = SessionLock::acquire(d.path()).unwrap_err();
+        assert!(matches!(err, HostError::Locked { .. }), "{err}");
+        drop(first);
+        SessionLock::acquire(d.path()).unwrap();
+    }
+
+    #[test]
+    fn settings_are_checked_before_anything_moves() {
+        let mut c = SessionConfig::paper("unused");
+        c.validate().unwrap();
+        c.degree = 40;
+        assert!(c.validate().is_err());
+        let mut c = SessionConfig::paper("unused");
+        c.limit.kind = SweepKind::Limit { step_us: 0 };
+        assert!(c.validate().is_err());
+        let mut c = SessionConfig::paper("unused");
+        c.nominal.stream_rate_hz = 0;
+        assert!(c.validate().is_err());
+    }
 }

@@ -131,6 +131,56 @@ impl Default for SweepConfig {
     }
 }
 
+impl SweepConfig {
+    /// Checks the settings before the rig moves: what would fail mid-sweep fails here.
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = |what: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{what} must be a positive number, got {v}"))
+            }
+        };
+        match self.kind {
+            SweepKind::Nominal {
+                step_g,
+                max_target_g,
+            } => {
+                positive("thrust step (g)", step_g)?;
+                if let Some(m) = max_target_g {
+                    positive("highest thrust target (g)", m)?;
+                }
+            }
+            SweepKind::Limit { step_us: 0 } => {
+                return Err("throttle step must be at least 1 µs, got 0".into());
+            }
+            SweepKind::Limit { .. } => {}
+        }
+        positive("supply voltage (V)", self.voltage_v)?;
+        positive("supply current limit (A)", self.current_limit_a)?;
+        positive("thrust tolerance (g)", self.tolerance_g)?;
+        if self.stream_rate_hz == 0 {
+            return Err("sample stream rate must be at least 1 Hz, got 0".into());
+        }
+        positive("settle timeout (s)", self.settle_timeout_s)?;
+        if self.max_attempts == 0 {
+            return Err("at least one throttle attempt per step is needed".into());
+        }
+        if self.tare_samples == 0 {
+            return Err("the tare needs at least one reading".into());
+        }
+        positive("largest throttle correction (µs)", self.max_correction_us)?;
+        if self.probe_fraction.is_nan() || self.probe_fraction <= 0.0 || self.probe_fraction >= 1.0
+        {
+            return Err(format!(
+                "first probe must be a fraction of the throttle range in (0, 1), got {}",
+                self.probe_fraction
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// Something a sweep reports while it runs (the binary renders these).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum SweepEvent<'a> {
