@@ -189,3 +189,44 @@ fn ardupilot_expo_across_the_nominal_and_limit_sweeps() {
     assert!((0.0..=1.0).contains(&expo));
     assert!(out.contains("MOT_BAT_VOLT_MAX,12.600000"));
 }
+
+#[test]
+fn an_also_sweep_in_microseconds_gets_the_same_pwm_check_as_the_main_sweep() {
+    // The main sweep's throttle is a fraction; the extra sweep's is in µs, with a PWM range
+    // that is upside down. Before, only the main sweep's command was checked.
+    let dir = tempfile::tempdir().unwrap();
+    let us = dir.path().join("limit-us.csv");
+    let mut csv = String::from("throttle,thrust_g,thrust_std_g,voltage_v\n");
+    for (i, t) in [
+        38.6, 54.9, 80.0, 110.0, 140.0, 160.0, 170.0, 171.0, 171.2, 171.1,
+    ]
+    .iter()
+    .enumerate()
+    {
+        csv += &format!("{},{t},0.3,9.0\n", 1100 + 100 * i);
+    }
+    std::fs::write(&us, csv).unwrap();
+    let out = Command::cargo_bin("hoverbench")
+        .unwrap()
+        .args([
+            "export",
+            "ardupilot",
+            "--sweep",
+            &data("paper-sweep.csv"),
+            "--also-sweep",
+            us.to_str().unwrap(),
+            "--cells",
+            "3",
+            "--capacity",
+            "2100",
+            "--pwm-min",
+            "2000",
+            "--pwm-max",
+            "1000",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("--pwm-max"), "{err}");
+}
