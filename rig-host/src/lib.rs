@@ -61,7 +61,7 @@ pub mod settle;
 pub mod simbench;
 pub mod sweep;
 
-pub use error::HostError;
+pub use error::{HostError, SupplyLoss};
 
 /// The wire protocol crate (the [`rig_protocol::Rig`] trait the sweeps drive).
 pub use rig_protocol;

@@ -364,7 +364,7 @@ where
     let err = |during: &'static str| {
         move |e: R::Error| HostError::Rig {
             during,
-            message: format!("{e:?}"),
+            source: Box::new(e),
         }
     };
     let identity = rig.identify().map_err(err("identify"))?;

@@ -26,7 +26,7 @@ use rig_protocol::{ClientError, Clock, FaultCause, Identity, Rig, RigState};
 use supply::RegulationMode;
 
 use crate::bench_supply::{SupplyControl, SupplyStatus};
-use crate::error::HostError;
+use crate::error::{HostError, SupplyLoss};
 use crate::log::{LIMIT_COLUMNS, LogHeader, LoggedSample, NOMINAL_COLUMNS, StepRecord, SweepLog};
 use crate::settle::{SettleDetector, SettlePolicy, SettleState, Window};
 
@@ -312,14 +312,14 @@ pub struct SweepOutcome {
 }
 
 /// What the sweep needs to know about a rig connection's errors.
-pub trait LinkError: std::fmt::Debug {
+pub trait LinkError: std::error::Error + Send + Sync + 'static {
     /// Whether the transport failed (as opposed to a timeout or a refusal).
     fn is_transport(&self) -> bool;
     /// Whether the rig refused a command because a fault is latched.
     fn is_faulted(&self) -> bool;
 }
 
-impl<E: std::fmt::Debug> LinkError for ClientError<E> {
+impl<E: std::fmt::Debug + Send + Sync + 'static> LinkError for ClientError<E> {
     fn is_transport(&self) -> bool {
         matches!(self, ClientError::Transport(_))
     }
@@ -339,12 +339,12 @@ fn rig_err<E: LinkError>(during: &'static str) -> impl Fn(E) -> HostError {
         if e.is_transport() {
             HostError::LinkLost {
                 during,
-                message: format!("{e:?}"),
+                source: Box::new(e),
             }
         } else {
             HostError::Rig {
                 during,
-                message: format!("{e:?}"),
+                source: Box::new(e),
             }
         }
     }
@@ -666,9 +666,7 @@ where
                                 .find(|(t, _)| *t < a)
                                 .or(marks.first())
                                 .map(|(_, m)| *m)
-                                .ok_or_else(|| {
-                                    HostError::SupplyLost("no status during the step".into())
-                                })?;
+                                .ok_or_else(|| HostError::SupplyLost(SupplyLoss::NoStatus))?;
                             return Ok(Attempt {
                                 throttle_us,
                                 window: w,
@@ -724,9 +722,8 @@ where
                 });
             }
             if Instant::now() > deadline {
-                return Err(HostError::SupplyLost(format!(
-                    "no mode reading within {:?}",
-                    self.cfg.supply_timeout
+                return Err(HostError::SupplyLost(SupplyLoss::NoMode(
+                    self.cfg.supply_timeout,
                 )));
             }
             self.check()?;
@@ -919,10 +916,12 @@ where
                 return Ok(());
             }
             if Instant::now() > deadline {
-                return Err(HostError::SupplyLost(format!(
-                    "output not at {} V in constant-voltage mode within {:?} (mode {:?}, {:?})",
-                    self.cfg.voltage_v, self.cfg.supply_timeout, s.mode, s.measurement
-                )));
+                return Err(HostError::SupplyLost(SupplyLoss::NotRegulating {
+                    voltage_v: self.cfg.voltage_v,
+                    timeout: self.cfg.supply_timeout,
+                    mode: format!("{:?}", s.mode),
+                    measurement: format!("{:?}", s.measurement),
+                }));
             }
             self.check()?;
             let _ = self
