@@ -25,8 +25,8 @@ use crate::bench_supply::SupplyControl;
 use crate::error::HostError;
 use crate::log::{self, StepRecord, SweepLog};
 use crate::sweep::{
-    LinkError, MassPlacer, SweepConfig, SweepEvent, SweepKind, SweepObserver, SweepOutcome,
-    calibrate, run_logged, sweep_header,
+    LinkError, MassPlacer, SweepConfig, SweepEnv, SweepEvent, SweepKind, SweepObserver,
+    SweepOutcome, calibrate, run_logged, sweep_header,
 };
 
 /// File names in a session folder.
@@ -247,55 +247,30 @@ pub fn fit_sweeps(
 }
 
 /// Runs one sweep of a session into `csv` (resuming or skipping it as the folder says).
-#[allow(clippy::too_many_arguments)]
 fn session_sweep<R: Rig>(
     rig: &mut R,
-    clock: &dyn Clock,
-    identity: &rig_protocol::Identity,
-    supply: &mut dyn SupplyControl,
+    env: SweepEnv<'_>,
     config: &SweepConfig,
     header: &log::LogHeader,
     csv: &Path,
     samples: &Path,
     resume: bool,
-    observer: &mut dyn SweepObserver,
-    stop: &AtomicBool,
 ) -> Result<(Vec<StepRecord>, Option<SweepOutcome>), HostError>
 where
     R::Error: LinkError,
 {
     let columns = config.kind.columns();
-    if csv.exists() && resume {
+    let (log, resumed) = if csv.exists() && resume {
         let (log, state) = SweepLog::resume(csv, samples, header, columns)?;
         if state.complete {
             drop(log);
             return Ok((state.rows, None));
         }
-        let o = run_logged(
-            rig,
-            clock,
-            identity,
-            supply,
-            config,
-            &state.rows,
-            log,
-            observer,
-            stop,
-        )?;
-        return Ok((o.rows.clone(), Some(o)));
-    }
-    let log = SweepLog::create(csv, samples, header, columns)?;
-    let o = run_logged(
-        rig,
-        clock,
-        identity,
-        supply,
-        config,
-        &[],
-        log,
-        observer,
-        stop,
-    )?;
+        (log, state.rows)
+    } else {
+        (SweepLog::create(csv, samples, header, columns)?, Vec::new())
+    };
+    let o = run_logged(rig, env, config, &resumed, log)?;
     Ok((o.rows.clone(), Some(o)))
 }
 
@@ -339,7 +314,6 @@ pub fn check_session_dir(dir: &Path, resume: bool) -> Result<(), HostError> {
 }
 
 /// Runs a characterisation on a connected rig and supply; see the [module docs](self).
-#[allow(clippy::too_many_arguments)]
 pub fn characterise<R: Rig>(
     rig: &mut R,
     clock: &dyn Clock,
@@ -426,19 +400,14 @@ where
             p(csv).display()
         )));
         let header = sweep_header(cfg, &identity, calibration_points, &calibration, &supply_id);
-        let r = session_sweep(
-            rig,
+        let env = SweepEnv {
             clock,
-            &identity,
+            identity: &identity,
             supply,
-            cfg,
-            &header,
-            &p(csv),
-            &p(samples),
-            config.resume,
             observer,
             stop,
-        )?;
+        };
+        let r = session_sweep(rig, env, cfg, &header, &p(csv), &p(samples), config.resume)?;
         done.push(csv.to_owned());
         done.push(samples.to_owned());
         Ok(r)
