@@ -190,3 +190,32 @@ fn an_also_sweep_in_microseconds_gets_the_same_pwm_check_as_the_main_sweep() {
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(err.contains("--pwm-max"), "{err}");
 }
+
+#[test]
+fn no_output_overwrites_its_input_or_leaves_a_temporary_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let sweep = dir.path().join("sweep.csv");
+    std::fs::copy(data("paper-sweep.csv"), &sweep).unwrap();
+    let before = std::fs::read(&sweep).unwrap();
+    let s = sweep.to_str().unwrap();
+    for args in [&["import", s, "-o", s][..], &["fit", s, "-o", s][..]] {
+        let out = run(args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains("also an input"), "{args:?}: {err}");
+        assert_eq!(std::fs::read(&sweep).unwrap(), before, "{args:?}");
+    }
+    // An -o that is a folder fails without a stray temporary file.
+    let folder = dir.path().join("out");
+    std::fs::create_dir(&folder).unwrap();
+    let out = run(&["fit", s, "-o", folder.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(
+        names.iter().all(|n| !n.contains(".tmp")),
+        "temporary files left: {names:?}"
+    );
+}
