@@ -309,24 +309,16 @@ impl Table {
     }
 }
 
-/// Writes a file atomically: to a temporary file beside it, then renamed over it, so that a
-/// failure never leaves a half-written file.
+/// Writes a file atomically (`outfile::write_atomic`: a temporary file beside it, fsync,
+/// rename; the temporary file is removed on error).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let name = path
-        .file_name()
-        .with_context(|| format!("{} is not a file path", path.display()))?;
-    let tmp = dir.join(format!(
-        ".{}.tmp{}",
-        name.to_string_lossy(),
-        std::process::id()
-    ));
-    std::fs::write(&tmp, bytes).with_context(|| format!("writing {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("writing {}", path.display()))?;
-    Ok(())
+    Ok(outfile::write_atomic(path, bytes)?)
+}
+
+/// [`write_atomic`], refusing a target that is the same file as one of `inputs` (so that
+/// `import X -o X` cannot overwrite its input).
+pub fn write_atomic_checked(path: &Path, bytes: &[u8], inputs: &[PathBuf]) -> Result<()> {
+    Ok(outfile::write_atomic_checked(path, bytes, inputs)?)
 }
 
 #[cfg(test)]

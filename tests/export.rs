@@ -1,37 +1,9 @@
 //! `hoverbench export`: the flight-stack files and the C header, checked end to end.
 
-use std::path::{Path, PathBuf};
 use std::process::Command as Process;
 
-use assert_cmd::Command;
-
-fn data(name: &str) -> String {
-    let p: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data")
-        .join(name);
-    p.to_str().unwrap().to_owned()
-}
-
-fn shared(rel: &str) -> String {
-    let p: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/real")
-        .join(rel);
-    p.to_str().unwrap().to_owned()
-}
-
-fn ok(args: &[&str]) -> String {
-    let out = Command::cargo_bin("hoverbench")
-        .unwrap()
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).unwrap()
-}
+mod common;
+use common::{data, ok, run, shared};
 
 #[test]
 fn px4_and_ardupilot_files_from_a_real_stand_export() {
@@ -79,17 +51,13 @@ fn c_header_compiles_and_agrees_with_the_estimator() {
         params.to_str().unwrap(),
     ]);
     let header = dir.path().join("hoverbench_params.h");
-    Command::cargo_bin("hoverbench")
-        .unwrap()
-        .args([
-            "export",
-            "c-header",
-            params.to_str().unwrap(),
-            "-o",
-            header.to_str().unwrap(),
-        ])
-        .assert()
-        .success();
+    ok(&[
+        "export",
+        "c-header",
+        params.to_str().unwrap(),
+        "-o",
+        header.to_str().unwrap(),
+    ]);
     let main_c = dir.path().join("main.c");
     std::fs::write(
         &main_c,
@@ -146,18 +114,14 @@ fn c_header_compiles_and_agrees_with_the_estimator() {
 
 #[test]
 fn export_without_throttle_says_so() {
-    let out = Command::cargo_bin("hoverbench")
-        .unwrap()
-        .args([
-            "export",
-            "px4",
-            "--sweep",
-            &shared("ctu-mrs/motor_tests.csv"),
-            "--where",
-            "propeller=Carbon fiber 9450",
-        ])
-        .output()
-        .unwrap();
+    let out = run(&[
+        "export",
+        "px4",
+        "--sweep",
+        &shared("ctu-mrs/motor_tests.csv"),
+        "--where",
+        "propeller=Carbon fiber 9450",
+    ]);
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("no throttle column"));
 }
@@ -188,4 +152,70 @@ fn ardupilot_expo_across_the_nominal_and_limit_sweeps() {
         .unwrap();
     assert!((0.0..=1.0).contains(&expo));
     assert!(out.contains("MOT_BAT_VOLT_MAX,12.600000"));
+}
+
+#[test]
+fn an_also_sweep_in_microseconds_gets_the_same_pwm_check_as_the_main_sweep() {
+    // The main sweep's throttle is a fraction; the extra sweep's is in µs, with a PWM range
+    // that is upside down. Before, only the main sweep's command was checked.
+    let dir = tempfile::tempdir().unwrap();
+    let us = dir.path().join("limit-us.csv");
+    let mut csv = String::from("throttle,thrust_g,thrust_std_g,voltage_v\n");
+    for (i, t) in [
+        38.6, 54.9, 80.0, 110.0, 140.0, 160.0, 170.0, 171.0, 171.2, 171.1,
+    ]
+    .iter()
+    .enumerate()
+    {
+        csv += &format!("{},{t},0.3,9.0\n", 1100 + 100 * i);
+    }
+    std::fs::write(&us, csv).unwrap();
+    let out = run(&[
+        "export",
+        "ardupilot",
+        "--sweep",
+        &data("paper-sweep.csv"),
+        "--also-sweep",
+        us.to_str().unwrap(),
+        "--cells",
+        "3",
+        "--capacity",
+        "2100",
+        "--pwm-min",
+        "2000",
+        "--pwm-max",
+        "1000",
+    ]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("--pwm-max"), "{err}");
+}
+
+#[test]
+fn no_output_overwrites_its_input_or_leaves_a_temporary_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let sweep = dir.path().join("sweep.csv");
+    std::fs::copy(data("paper-sweep.csv"), &sweep).unwrap();
+    let before = std::fs::read(&sweep).unwrap();
+    let s = sweep.to_str().unwrap();
+    for args in [&["import", s, "-o", s][..], &["fit", s, "-o", s][..]] {
+        let out = run(args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains("also an input"), "{args:?}: {err}");
+        assert_eq!(std::fs::read(&sweep).unwrap(), before, "{args:?}");
+    }
+    // An -o that is a folder fails without a stray temporary file.
+    let folder = dir.path().join("out");
+    std::fs::create_dir(&folder).unwrap();
+    let out = run(&["fit", s, "-o", folder.to_str().unwrap()]);
+    assert_eq!(out.status.code(), Some(2));
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(
+        names.iter().all(|n| !n.contains(".tmp")),
+        "temporary files left: {names:?}"
+    );
 }

@@ -9,7 +9,7 @@
 
 use std::collections::HashSet;
 use std::path::Path;
-use std::process::{Child, Command, Output, Stdio};
+use std::process::{Child, Stdio};
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
@@ -18,31 +18,15 @@ use rig_host::simbench::{SimBench, SimBenchOptions};
 use serde_json::Value;
 use sim::pty::{CorruptingProxy, Corruption, ProxyOptions};
 
+mod common;
+use common::{bin, ok, run};
+
 const SPEED: f64 = 5.0;
 
 static SERIAL: Mutex<()> = Mutex::new(());
 
 fn serial() -> std::sync::MutexGuard<'static, ()> {
     SERIAL.lock().unwrap_or_else(|e| e.into_inner())
-}
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_hoverbench"))
-}
-
-fn run(args: &[&str]) -> Output {
-    bin().args(args).output().unwrap()
-}
-
-fn ok(args: &[&str]) -> String {
-    let out = run(args);
-    assert!(
-        out.status.success(),
-        "hoverbench {args:?} failed:\n{}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).unwrap()
 }
 
 fn bench(seed: u64, record: bool) -> SimBench {
@@ -178,6 +162,77 @@ fn characterise_on_the_simulated_bench_lands_on_the_paper_optima() {
         assert_eq!(field(row, 14), "CV");
     }
     assert_eq!(field(r.last().unwrap(), 2), "2000");
+
+    // The session stored its platform: the report needs no --structure-mass/--avionics-power.
+    let report = dir.path().join("report-again");
+    ok(&["report", s, "-o", report.to_str().unwrap()]);
+    assert!(report.join("report.html").exists());
+
+    // A second run on the folder while one holds it is refused, and nothing moves.
+    let before = std::fs::read(session.join("sweep.csv")).unwrap();
+    {
+        let _held = rig_host::session::SessionLock::acquire(&session).unwrap();
+        let out = run(&["characterise", "--speed", "5", "--resume", "-o", s]);
+        assert!(!out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("in use by another hoverbench run"), "{err}");
+    }
+    assert_eq!(std::fs::read(session.join("sweep.csv")).unwrap(), before);
+
+    // Resuming the finished session neither calibrates again nor forgets the rig time.
+    let summary = |p: &Path| -> Value {
+        serde_json::from_str(&std::fs::read_to_string(p.join("summary.json")).unwrap()).unwrap()
+    };
+    let first_summary = summary(&session);
+    let out = run(&["characterise", "--speed", "5", "--resume", "-o", s]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let all = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(!all.contains("calibrating"), "{all}");
+    let again = summary(&session);
+    for sweep in ["nominal", "limit"] {
+        let t0 = first_summary[sweep]["rig_time_s"].as_f64().unwrap();
+        let t1 = again[sweep]["rig_time_s"].as_f64().unwrap();
+        assert!(t0 > 0.0 && t1 == t0, "{sweep}: {t0} then {t1}");
+    }
+    assert_eq!(again["calibration"], first_summary["calibration"]);
+    assert_eq!(std::fs::read(session.join("sweep.csv")).unwrap(), before);
+}
+
+#[test]
+fn bad_characterise_settings_fail_before_the_rig_moves() {
+    let dir = tempfile::tempdir().unwrap();
+    for bad in [
+        &["--degree", "40"][..],
+        &["--rate", "0"][..],
+        &["--limit-step-us", "0"][..],
+    ] {
+        let session = dir.path().join(bad[0].trim_start_matches('-'));
+        let mut args = vec![
+            "characterise",
+            "--speed",
+            "5",
+            "-o",
+            session.to_str().unwrap(),
+        ];
+        args.extend_from_slice(bad);
+        let t = Instant::now();
+        let out = run(&args);
+        assert_eq!(out.status.code(), Some(2), "{bad:?}");
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains("invalid setting"), "{bad:?}: {err}");
+        // Nothing was started: no simulated bench line, no logs.
+        assert!(String::from_utf8_lossy(&out.stdout).is_empty(), "{bad:?}");
+        assert!(!session.join("sweep.csv").exists(), "{bad:?}");
+        assert!(t.elapsed() < Duration::from_secs(20), "{bad:?}");
+    }
 }
 
 #[test]

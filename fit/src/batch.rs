@@ -1,20 +1,13 @@
 //! Batch least-squares polynomial fit with extended-precision refinement.
 
-use crate::assemble::{Solved, solve_upper, solve_upper_transposed, split_augmented};
+use crate::assemble::Solved;
 use crate::dd::{Dd, DdSum};
 use crate::error::{FitError, Input};
-use crate::poly::{MaxResidual, PolyFit};
-use crate::qr::{DEFAULT_BLOCK_ROWS, QrAccumulator};
-
-/// Highest polynomial degree accepted by the fits.
-///
-/// Even on `[−1, 1]` the monomial basis becomes ill-conditioned quickly
-/// (condition ≈ 2.4ᵈ); beyond degree 20 the coefficients carry little
-/// information and a piecewise model is the right tool.
-pub const MAX_DEGREE: usize = 20;
-
-/// The degree used by the paper's thrust → power curves.
-pub const DEFAULT_DEGREE: usize = 5;
+use crate::poly::{MAX_DEGREE, MaxResidual, PolyFit};
+use crate::qr::{
+    DEFAULT_BLOCK_ROWS, QrAccumulator, solve_upper, solve_upper_transposed, split_augmented,
+};
+use crate::scale::Pow2;
 
 /// Maximum number of corrected-semi-normal-equation refinement steps.
 const MAX_REFINEMENT_STEPS: usize = 8;
@@ -49,62 +42,6 @@ pub fn fit_polynomial_weighted(
     degree: usize,
 ) -> Result<PolyFit, FitError> {
     fit(x, y, Some(weights), degree)
-}
-
-/// Exact power-of-two scaling of a data column so that its largest
-/// magnitude lies in `[0.5, 1)`. Applied in two steps so that neither
-/// factor over- or underflows.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct Pow2 {
-    exp: i32,
-}
-
-impl Pow2 {
-    /// No scaling.
-    pub(crate) const IDENTITY: Pow2 = Pow2 { exp: 0 };
-
-    pub(crate) fn for_max_abs(m: f64) -> Pow2 {
-        if !(m > 0.0 && m.is_finite()) {
-            return Pow2::IDENTITY;
-        }
-        // m = f · 2^exp with f in [0.5, 1)
-        let mut exp = m.log2().floor() as i32 + 1;
-        let probe = Pow2 { exp }.down(m);
-        if probe >= 1.0 {
-            exp += 1;
-        } else if probe < 0.5 {
-            exp -= 1;
-        }
-        Pow2 { exp }
-    }
-
-    fn apply(v: f64, e: i32) -> f64 {
-        let h = e / 2;
-        v * 2f64.powi(h) * 2f64.powi(e - h)
-    }
-
-    /// `v · 2^-exp`.
-    pub(crate) fn down(self, v: f64) -> f64 {
-        Pow2::apply(v, -self.exp)
-    }
-
-    /// `v · 2^exp`.
-    pub(crate) fn up(self, v: f64) -> f64 {
-        Pow2::apply(v, self.exp)
-    }
-
-    /// `v · √(2^exp)`.
-    pub(crate) fn up_sqrt(self, v: f64) -> f64 {
-        let h = Pow2 {
-            exp: self.exp.div_euclid(2),
-        };
-        let v = h.up(v);
-        if self.exp.rem_euclid(2) == 1 {
-            v * std::f64::consts::SQRT_2
-        } else {
-            v
-        }
-    }
 }
 
 /// Validated input: scaled ordinates and weights, and the x statistics.

@@ -15,6 +15,8 @@
 //!   domain in a cheap first pass, [`ResidualScan`] finds the largest
 //!   residual in an optional second pass).
 //! * [`thrust_limit`] → [`ThrustLimit`]: maximum sustained thrust of a sweep.
+//! * [`sweeps::fit_sweeps`]: the characterisation seam — a nominal sweep and an optional
+//!   limit sweep (already parsed by `import`) → `params.toml` and a [`sweeps::FitSummary`].
 //! * [`FitError`]: every failure, with the offending index and value. No
 //!   function panics on any input.
 //!
@@ -78,13 +80,16 @@ mod error;
 pub mod export;
 mod poly;
 mod qr;
+mod scale;
 mod streaming;
+pub mod sweeps;
 mod thrust;
 
-pub use batch::{DEFAULT_DEGREE, MAX_DEGREE, fit_polynomial, fit_polynomial_weighted};
+pub use batch::{fit_polynomial, fit_polynomial_weighted};
 pub use error::{FitError, Input};
 pub use poly::{
-    FitStats, FitWarning, ILL_CONDITIONED_THRESHOLD, MaxResidual, PolyFit, ResidualScan,
+    DEFAULT_DEGREE, FitStats, FitWarning, ILL_CONDITIONED_THRESHOLD, MAX_DEGREE, MaxResidual,
+    PolyFit, ResidualScan,
 };
 pub use streaming::{RangeScan, StreamingPolyFit};
 pub use thrust::{ThrustLimit, ThrustLimitKind, ThrustLimitOptions, ThrustSag, thrust_limit};

@@ -9,6 +9,16 @@ use crate::dd::Dd;
 /// refinement can no longer recover full accuracy.
 pub const ILL_CONDITIONED_THRESHOLD: f64 = 1e7;
 
+/// Highest polynomial degree accepted by the fits.
+///
+/// Even on `[−1, 1]` the monomial basis becomes ill-conditioned quickly
+/// (condition ≈ 2.4ᵈ); beyond degree 20 the coefficients carry little
+/// information and a piecewise model is the right tool.
+pub const MAX_DEGREE: usize = 20;
+
+/// The degree used by the paper's thrust → power curves.
+pub const DEFAULT_DEGREE: usize = 5;
+
 /// Relative tolerance (against `Σ|aₖ|`, the size of the curve in the scaled
 /// basis) below which a negative slope is treated as rounding noise by the
 /// monotonicity check.

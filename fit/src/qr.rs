@@ -154,6 +154,38 @@ impl QrAccumulator {
     }
 }
 
+/// Solves `R x = b` for upper-triangular row-major `R` (`p × p`).
+pub(crate) fn solve_upper(r: &[f64], p: usize, b: &[f64]) -> Vec<f64> {
+    let mut x = b.to_vec();
+    for i in (0..p).rev() {
+        let s: f64 = (i + 1..p).map(|j| r[i * p + j] * x[j]).sum();
+        x[i] = (x[i] - s) / r[i * p + i];
+    }
+    x
+}
+
+/// Solves `Rᵀ x = b` for upper-triangular row-major `R` (`p × p`).
+pub(crate) fn solve_upper_transposed(r: &[f64], p: usize, b: &[f64]) -> Vec<f64> {
+    let mut x = b.to_vec();
+    for i in 0..p {
+        let s: f64 = (0..i).map(|j| r[j * p + i] * x[j]).sum();
+        x[i] = (x[i] - s) / r[i * p + i];
+    }
+    x
+}
+
+/// The leading `p × p` block of a row-major `(p+1) × (p+1)` augmented
+/// triangle, and its last column (`Qᵀy`).
+pub(crate) fn split_augmented(r_aug: &[f64], p: usize) -> (Vec<f64>, Vec<f64>, f64) {
+    let q = p + 1;
+    let mut r = vec![0.0; p * p];
+    for i in 0..p {
+        r[i * p..i * p + p].copy_from_slice(&r_aug[i * q..i * q + p]);
+    }
+    let qty = (0..p).map(|i| r_aug[i * q + p]).collect();
+    (r, qty, r_aug[p * q + p])
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -197,6 +229,22 @@ mod tests {
             for j in 0..i {
                 assert_eq!(r[i * p + j], 0.0);
             }
+        }
+    }
+
+    #[test]
+    fn triangular_solves_invert_each_other() {
+        let r = [2.0, 1.0, -1.0, 0.0, 3.0, 0.5, 0.0, 0.0, 4.0];
+        let b = [1.0, 2.0, 3.0];
+        let x = solve_upper(&r, 3, &b);
+        for i in 0..3 {
+            let rx: f64 = (0..3).map(|j| r[i * 3 + j] * x[j]).sum();
+            assert!((rx - b[i]).abs() < 1e-15);
+        }
+        let y = solve_upper_transposed(&r, 3, &b);
+        for i in 0..3 {
+            let rty: f64 = (0..3).map(|j| r[j * 3 + i] * y[j]).sum();
+            assert!((rty - b[i]).abs() < 1e-15);
         }
     }
 }

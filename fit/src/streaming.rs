@@ -1,11 +1,11 @@
 //! Streaming least-squares polynomial fit with memory independent of N.
 
-use crate::assemble::{Solved, solve_upper, split_augmented};
-use crate::batch::{MAX_DEGREE, Pow2};
+use crate::assemble::Solved;
 use crate::dd::Dd;
 use crate::error::{FitError, Input};
-use crate::poly::PolyFit;
-use crate::qr::{DEFAULT_BLOCK_ROWS, QrAccumulator};
+use crate::poly::{MAX_DEGREE, PolyFit};
+use crate::qr::{DEFAULT_BLOCK_ROWS, QrAccumulator, solve_upper, split_augmented};
+use crate::scale::Pow2;
 
 /// Cheap first pass over the abscissae to fix the domain of a
 /// [`StreamingPolyFit`].

@@ -63,6 +63,12 @@ pub enum ReportError {
         /// The fit's reason.
         source: fit::FitError,
     },
+    /// A sweep could not be turned into a curve or a thrust limit.
+    #[error(transparent)]
+    Sweep(#[from] fit::sweeps::SweepFitError),
+    /// An output file could not be written (nothing half-written is left).
+    #[error(transparent)]
+    Write(#[from] outfile::WriteError),
     /// A file or folder could not be written.
     #[error("{path}: {source}")]
     Io {

@@ -80,23 +80,11 @@ pub(crate) fn png<F: Draw>(figure: &F) -> Result<Vec<u8>, ReportError> {
     Ok(out)
 }
 
-/// Writes bytes to a temporary file beside `path`, then renames it over `path`, so that a failure
-/// never leaves a half-written file.
+/// Writes bytes atomically (`outfile::write_atomic`: a temporary file beside `path`, fsync,
+/// rename; the temporary file is removed on error), so that a failure never leaves a
+/// half-written file or a stray temporary one.
 pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), ReportError> {
-    let io = |source| ReportError::Io {
-        path: path.to_owned(),
-        source,
-    };
-    let dir = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    let name = path
-        .file_name()
-        .map_or_else(|| "figure".to_owned(), |n| n.to_string_lossy().into_owned());
-    let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
-    std::fs::write(&tmp, bytes).map_err(io)?;
-    std::fs::rename(&tmp, path).map_err(io)
+    outfile::write_atomic(path, bytes).map_err(ReportError::from)
 }
 
 /// Colours of the figures (colour-blind-safe, after Okabe and Ito).

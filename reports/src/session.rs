@@ -6,7 +6,9 @@ use std::path::{Path, PathBuf};
 
 use estimator::file::ParamsFile;
 use estimator::{Battery, Eq8Form, MissionOptions, Payload};
+use fit::sweeps::LimitSweep;
 use import::Table;
+use import::stand::{StandLog, StandOptions};
 
 use crate::{
     LimitMarker, MeasuredFlight, MissionInput, NamedBattery, PayloadStudy, ReportError,
@@ -29,10 +31,10 @@ pub struct SessionReport {
     pub plan: Option<String>,
     /// Measured flights for Fig. 6.
     pub flights: Option<PathBuf>,
-    /// `m_S`, kg.
-    pub structure_mass_kg: f64,
-    /// `p_A`, W.
-    pub avionics_power_w: f64,
+    /// `m_S`, kg [default: the session's `platform.toml`].
+    pub structure_mass_kg: Option<f64>,
+    /// `p_A`, W [default: the session's `platform.toml`].
+    pub avionics_power_w: Option<f64>,
     /// Payload for Fig. 4, Fig. 5 and the mission.
     pub payload: Payload,
     /// Overrides the thrust limit `m_L`, kg.
@@ -48,6 +50,63 @@ pub struct SessionReport {
     pub eq8: Eq8Form,
     /// Who wrote the report and when, for the provenance table.
     pub written_by: String,
+}
+
+/// The platform a session was characterised for, stored in the session folder as
+/// `platform.toml` so that `hoverbench report SESSION` needs no `--structure-mass` or
+/// `--avionics-power`.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SessionPlatform {
+    /// `m_S`: structure mass without battery, kg.
+    pub structure_mass_kg: f64,
+    /// `p_A`: avionics power, W.
+    pub avionics_power_w: f64,
+    /// A battery's mass, kg, for the mission and Fig. 6.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub battery_mass_kg: Option<f64>,
+    /// Its energy density, Wh/kg.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub battery_energy_density_wh_per_kg: Option<f64>,
+}
+
+impl SessionPlatform {
+    /// The file in a session folder.
+    pub const FILE: &'static str = "platform.toml";
+
+    /// The TOML text of `platform.toml`.
+    pub fn to_toml_string(&self) -> String {
+        let body = toml::to_string_pretty(self).unwrap_or_else(|e| format!("# {e}\n"));
+        format!(
+            "# hoverbench session platform: what `hoverbench report` draws the figures for.\n\n{body}"
+        )
+    }
+
+    /// Reads `platform.toml` from a session folder; `Ok(None)` when the session has none.
+    pub fn load(dir: &Path) -> Result<Option<Self>, ReportError> {
+        let path = dir.join(Self::FILE);
+        let text = match std::fs::read_to_string(&path) {
+            Ok(t) => t,
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+            Err(source) => return Err(ReportError::Io { path, source }),
+        };
+        let p: Self = toml::from_str(&text).map_err(|e| ReportError::NoData {
+            figure: "platform",
+            what: format!("{}: {}", path.display(), e.message().trim()),
+        })?;
+        for (what, v) in [
+            ("structure_mass_kg", p.structure_mass_kg),
+            ("avionics_power_w", p.avionics_power_w),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(ReportError::NoData {
+                    figure: "platform",
+                    what: format!("{}: {what} = {v} is not a mass or power", path.display()),
+                });
+            }
+        }
+        Ok(Some(p))
+    }
 }
 
 /// The parameter file of a session folder, or the given file.
@@ -88,31 +147,16 @@ fn read(path: &Path) -> Result<(Table, String), ReportError> {
     Ok((table, import::sha256_hex(&bytes)))
 }
 
+/// The thrust limit of a session's limit sweep, extracted as `hoverbench fit --limit` and the
+/// characterise session do ([`fit::sweeps::LimitSweep`]).
 fn limit_from_sweep(path: &Path) -> Result<LimitMarker, ReportError> {
-    let (t, _) = read(path)?;
-    let std = if t.has("thrust_std_g") {
-        Some(t.column("thrust_std_g")?)
-    } else {
-        None
-    };
-    let opts = fit::ThrustLimitOptions {
-        thrust_std_g: std.as_deref(),
-        ..Default::default()
-    };
-    let l = fit::thrust_limit(&t.column("throttle")?, &t.column("thrust_g")?, &opts).map_err(
-        |source| ReportError::Fit {
-            context: format!("extracting the thrust limit from {}", path.display()),
-            source,
-        },
-    )?;
-    let v = t
-        .column("voltage_v")
-        .ok()
-        .map(|v| v.iter().sum::<f64>() / v.len() as f64);
+    let log = StandLog::read(path, &StandOptions::default())?;
+    let sweep = LimitSweep::from_stand(&log, None)?;
+    let l = sweep.thrust_limit()?;
     Ok(LimitMarker {
         per_rotor_g: l.thrust_g,
         uncertainty_g: l.uncertainty_g,
-        supply_voltage_v: v,
+        supply_voltage_v: sweep.supply_voltage_v,
         note: Some(format!("from {}", path.display())),
     })
 }
@@ -127,7 +171,28 @@ pub fn write_session_report(r: &SessionReport) -> Result<ReportFiles, ReportErro
     let file = ParamsFile::load(&params_path)?;
     let params = file.to_params()?;
     let (sweep_path, limit_path) = locate(r, &params_path, &file);
-    let mut model = params.model(r.structure_mass_kg, r.avionics_power_w);
+    let stored = if r.input.is_dir() {
+        SessionPlatform::load(&r.input)?
+    } else {
+        None
+    };
+    let (structure_mass_kg, avionics_power_w) = match (
+        r.structure_mass_kg.or(stored.map(|p| p.structure_mass_kg)),
+        r.avionics_power_w.or(stored.map(|p| p.avionics_power_w)),
+    ) {
+        (Some(m), Some(p)) => (m, p),
+        _ => {
+            return Err(ReportError::NoData {
+                figure: "endurance figures",
+                what: format!(
+                    "the platform: {} has no {}; give --structure-mass and --avionics-power",
+                    r.input.display(),
+                    SessionPlatform::FILE
+                ),
+            });
+        }
+    };
+    let mut model = params.model(structure_mass_kg, avionics_power_w);
     let rotors = f64::from(model.platform.rotor_count);
     let mut provenance = vec![(
         "parameters".to_owned(),
@@ -207,7 +272,10 @@ pub fn write_session_report(r: &SessionReport) -> Result<ReportFiles, ReportErro
         None => Vec::new(),
     };
 
-    let given = match r.battery {
+    let battery = r
+        .battery
+        .or(stored.and_then(|p| p.battery_mass_kg.zip(p.battery_energy_density_wh_per_kg)));
+    let given = match battery {
         Some((m, d)) => Some(NamedBattery {
             name: format!("battery {m} kg, {d} Wh/kg"),
             battery: Battery::from_density(m, d).map_err(estimate_err("the battery".to_owned()))?,

@@ -11,7 +11,7 @@ use std::sync::atomic::AtomicBool;
 
 use rig_host::bench_supply::IdealSupply;
 use rig_host::settle::SettlePolicy;
-use rig_host::sweep::{MemorySink, SweepConfig, SweepEvent, run_sweep};
+use rig_host::sweep::{MemorySink, SweepConfig, SweepEnv, SweepEvent, run_sweep};
 use rig_protocol::{ClientConfig, Clock, Rig};
 use sim::{SimRig, presets};
 
@@ -47,18 +47,14 @@ fn run(policy: SettlePolicy, seed: u64) -> Run {
         ..SweepConfig::default()
     };
     let mut sink = MemorySink::default();
-    let outcome = run_sweep(
-        &mut host,
-        &clock,
-        &identity,
-        &mut IdealSupply::new(),
-        &config,
-        &[],
-        &mut sink,
-        &mut |_e: SweepEvent<'_>| {},
-        &AtomicBool::new(false),
-    )
-    .expect("sweep");
+    let env = SweepEnv {
+        clock: &clock,
+        identity: &identity,
+        supply: &mut IdealSupply::new(),
+        observer: &mut |_e: SweepEvent<'_>| {},
+        stop: &AtomicBool::new(false),
+    };
+    let outcome = run_sweep(&mut host, env, &config, &[], &mut sink).expect("sweep");
     if std::env::var_os("SETTLE_DEBUG").is_some() {
         for l in sink.samples.iter().filter(|l| l.step == 1) {
             let s = l.sample;

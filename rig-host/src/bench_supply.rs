@@ -19,7 +19,7 @@ use supply::{
     Supply, SupplyError,
 };
 
-use crate::error::HostError;
+use crate::error::{HostError, SupplyLoss};
 
 /// The command set of a bench supply on a serial port.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -169,7 +169,7 @@ enum Request {
 
 struct Shared {
     status: SupplyStatus,
-    lost: Option<String>,
+    lost: Option<(u32, Arc<supply::SupplyError>)>,
 }
 
 /// Consecutive failed polls after which the supply counts as lost.
@@ -227,7 +227,7 @@ impl SupplyMonitor {
             std::thread::Builder::new()
                 .name("supply-monitor".into())
                 .spawn(move || monitor(supply, shared, rx, stop))
-                .map_err(|e| HostError::SupplyLost(format!("cannot start the monitor: {e}")))?
+                .map_err(|e| HostError::SupplyLost(SupplyLoss::MonitorNotStarted(e)))?
         };
         Ok(Self {
             identity,
@@ -242,13 +242,13 @@ impl SupplyMonitor {
         let (tx, rx) = mpsc::channel();
         self.requests
             .send((r, tx))
-            .map_err(|_| HostError::SupplyLost("monitor thread ended".into()))?;
+            .map_err(|_| HostError::SupplyLost(SupplyLoss::MonitorEnded))?;
         match rx.recv_timeout(REQUEST_TIMEOUT) {
             Ok(r) => r.map_err(|source| HostError::Supply {
                 during: "setting",
                 source: Box::new(source),
             }),
-            Err(_) => Err(HostError::SupplyLost("no answer to a setting".into())),
+            Err(_) => Err(HostError::SupplyLost(SupplyLoss::NoAnswer(REQUEST_TIMEOUT))),
         }
     }
 }
@@ -295,7 +295,7 @@ fn monitor(
                 Err(e) => {
                     failures += 1;
                     if failures >= LOST_AFTER {
-                        s.lost = Some(e.to_string());
+                        s.lost = Some((failures, Arc::new(e)));
                     }
                 }
             }
@@ -326,7 +326,10 @@ impl SupplyControl for SupplyMonitor {
     fn status(&mut self) -> Result<SupplyStatus, HostError> {
         let s = lock(&self.shared);
         match &s.lost {
-            Some(e) => Err(HostError::SupplyLost(e.clone())),
+            Some((polls, e)) => Err(HostError::SupplyLost(SupplyLoss::Polls {
+                polls: *polls,
+                source: e.clone(),
+            })),
             None => Ok(s.status),
         }
     }

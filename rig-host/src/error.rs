@@ -5,6 +5,50 @@ use std::path::PathBuf;
 use rig_protocol::FaultCause;
 use thiserror::Error;
 
+/// How the bench supply was lost (the cause of [`HostError::SupplyLost`]).
+#[derive(Debug, Error)]
+#[non_exhaustive]
+pub enum SupplyLoss {
+    /// The monitor thread could not be started.
+    #[error("cannot start the monitor thread")]
+    MonitorNotStarted(#[source] std::io::Error),
+    /// The monitor thread ended.
+    #[error("the monitor thread ended")]
+    MonitorEnded,
+    /// A setting was not answered in time.
+    #[error("no answer to a setting within {0:?}")]
+    NoAnswer(std::time::Duration),
+    /// Consecutive mode polls failed.
+    #[error("{polls} consecutive mode polls failed")]
+    Polls {
+        /// How many.
+        polls: u32,
+        /// The last poll's error.
+        #[source]
+        source: std::sync::Arc<supply::SupplyError>,
+    },
+    /// No supply status arrived during a step.
+    #[error("no status during the step")]
+    NoStatus,
+    /// No fresh mode reading arrived in time.
+    #[error("no mode reading within {0:?}")]
+    NoMode(std::time::Duration),
+    /// The output did not reach the set-point in constant-voltage mode.
+    #[error(
+        "output not at {voltage_v} V in constant-voltage mode within {timeout:?} (mode {mode}, {measurement})"
+    )]
+    NotRegulating {
+        /// The set-point, V.
+        voltage_v: f64,
+        /// How long was waited.
+        timeout: std::time::Duration,
+        /// The regulation mode seen.
+        mode: String,
+        /// The last measurement.
+        measurement: String,
+    },
+}
+
 /// Every failure of the host side, with its context.
 #[derive(Debug, Error)]
 pub enum HostError {
@@ -18,20 +62,31 @@ pub enum HostError {
         source: serialport::Error,
     },
     /// The link to the rig broke (the port vanished, a write failed).
-    #[error("link to the rig lost during {during}: {message}")]
+    #[error("link to the rig lost during {during}")]
     LinkLost {
         /// What the host was doing.
         during: &'static str,
-        /// The transport's error.
-        message: String,
+        /// The protocol client's error (a transport error).
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
     },
     /// The rig did not answer, or refused a command.
-    #[error("rig {during}: {message}")]
+    #[error("rig {during}")]
     Rig {
         /// What the host was doing.
         during: &'static str,
         /// The protocol client's error.
-        message: String,
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    /// The handshake with the rig failed.
+    #[error("handshake with the rig on {path} (is it a hoverbench rig?)")]
+    Handshake {
+        /// The port.
+        path: String,
+        /// The protocol client's error.
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
     },
     /// The rig latched a fault.
     #[error("rig fault: {cause:?} (value {value}, limit {limit})")]
@@ -53,8 +108,8 @@ pub enum HostError {
         source: Box<supply::SupplyError>,
     },
     /// The bench supply stopped answering its monitor.
-    #[error("bench supply monitor: {0}")]
-    SupplyLost(String),
+    #[error("bench supply monitor")]
+    SupplyLost(#[source] SupplyLoss),
     /// Something took longer than allowed.
     #[error("timeout: {what} after {seconds:.1} s of rig time")]
     Timeout {
@@ -101,6 +156,21 @@ pub enum HostError {
         #[source]
         source: Box<fit::FitError>,
     },
+    /// Another run holds the session folder.
+    #[error(
+        "{} is in use by another hoverbench run (its .lock is held): wait for it to finish or stop it; two runs would interleave their rows",
+        dir.display()
+    )]
+    Locked {
+        /// The session folder.
+        dir: PathBuf,
+    },
+    /// The sweeps could not be fitted.
+    #[error("fitting the session's sweeps")]
+    SweepFit(#[from] fit::sweeps::SweepFitError),
+    /// An output file could not be written.
+    #[error(transparent)]
+    Write(#[from] outfile::WriteError),
     /// An argument or setting is out of range.
     #[error("invalid setting: {0}")]
     Invalid(String),

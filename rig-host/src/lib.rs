@@ -16,6 +16,8 @@
 //!   slope against the noise), or a fixed dwell for comparison;
 //! - [`sweep::run_sweep`] / [`sweep::run_logged`]: thrust-targeted nominal sweeps (closed loop
 //!   on throttle, ±1 g) and throttle-stepped limit sweeps, with safe stops;
+//! - [`controller::StepController`]: the pure throttle controller of a thrust-targeted step
+//!   (secants in √thrust; state in, set-point out);
 //! - [`log::SweepLog`]: crash-safe CSV logs (fsynced per step, raw samples beside, comment
 //!   block, `--resume`);
 //! - [`session::characterise`]: the whole job into a session folder;
@@ -25,7 +27,7 @@
 //!
 //! ```
 //! use rig_host::bench_supply::IdealSupply;
-//! use rig_host::sweep::{run_sweep, MemorySink, SweepConfig, SweepKind};
+//! use rig_host::sweep::{run_sweep, MemorySink, SweepConfig, SweepEnv, SweepKind};
 //! use rig_protocol::{ClientConfig, Rig};
 //! use std::sync::atomic::AtomicBool;
 //!
@@ -40,9 +42,14 @@
 //!     ..SweepConfig::default()
 //! };
 //! let mut sink = MemorySink::default();
-//! let outcome = run_sweep(&mut host, &clock, &identity, &mut IdealSupply::new(), &config,
-//!                         &[], &mut sink, &mut |_e: rig_host::sweep::SweepEvent<'_>| {},
-//!                         &AtomicBool::new(false)).unwrap();
+//! let env = SweepEnv {
+//!     clock: &clock,
+//!     identity: &identity,
+//!     supply: &mut IdealSupply::new(),
+//!     observer: &mut |_e: rig_host::sweep::SweepEvent<'_>| {},
+//!     stop: &AtomicBool::new(false),
+//! };
+//! let outcome = run_sweep(&mut host, env, &config, &[], &mut sink).unwrap();
 //! assert_eq!(outcome.rows.len(), 2); // 10 and 20 g (zero thrust is the tare)
 //! // The load cell is uncalibrated here (its nominal scale is 4 % off), yet each target is
 //! // hit within ±1 g of what it reads.
@@ -52,6 +59,7 @@
 //! ```
 
 pub mod bench_supply;
+pub mod controller;
 pub mod error;
 pub mod link;
 pub mod log;
@@ -61,7 +69,7 @@ pub mod settle;
 pub mod simbench;
 pub mod sweep;
 
-pub use error::HostError;
+pub use error::{HostError, SupplyLoss};
 
 /// The wire protocol crate (the [`rig_protocol::Rig`] trait the sweeps drive).
 pub use rig_protocol;

@@ -238,8 +238,8 @@ pub fn connect_rig(path: &str, speed: f64) -> Result<RigClient, HostError> {
         retries: defaults.retries.max(4),
         ..defaults
     };
-    rig_protocol::Client::connect(link, clock, config).map_err(|e| HostError::Rig {
-        during: "handshake",
-        message: format!("{e} (is {path} a hoverbench rig?)"),
+    rig_protocol::Client::connect(link, clock, config).map_err(|e| HostError::Handshake {
+        path: path.to_owned(),
+        source: Box::new(e),
     })
 }

@@ -119,7 +119,8 @@ impl StepRecord {
     }
 
     fn parse(header: &[&str], line: &str) -> Option<Self> {
-        let cells: Vec<&str> = line.split(',').map(str::trim).collect();
+        let record = csv_record(line)?;
+        let cells: Vec<&str> = record.iter().collect();
         if cells.len() != header.len() {
             return None;
         }
@@ -144,6 +145,17 @@ impl StepRecord {
             valid: get("valid")?.parse().ok()?,
         })
     }
+}
+
+/// One CSV line as a record (the `csv` crate's quoting rules, cells trimmed).
+fn csv_record(line: &str) -> Option<csv::StringRecord> {
+    csv::ReaderBuilder::new()
+        .has_headers(false)
+        .trim(csv::Trim::All)
+        .from_reader(line.as_bytes())
+        .records()
+        .next()?
+        .ok()
 }
 
 /// One raw sample in the sample log.
@@ -206,7 +218,8 @@ impl LogHeader {
         s
     }
 
-    fn parse(text: &str) -> Self {
+    /// Reads the `# key: value` header lines of a log's text.
+    pub fn parse(text: &str) -> Self {
         let mut h = Self::default();
         for l in text.lines() {
             let Some(c) = l.strip_prefix('#') else {
@@ -320,7 +333,9 @@ impl SweepLog {
         if head != columns {
             return Err(refuse(format!("columns {head:?}, expected {columns:?}")));
         }
-        let names: Vec<&str> = head.split(',').collect();
+        let head_record =
+            csv_record(head).ok_or_else(|| refuse(format!("column header {head:?}")))?;
+        let names: Vec<&str> = head_record.iter().collect();
         let mut state = ResumeState::default();
         for (i, l) in lines.enumerate() {
             if let Some(c) = l.strip_prefix('#') {

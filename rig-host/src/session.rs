@@ -13,12 +13,11 @@
 //! | `summary.txt`, `summary.json` | what was done and found |
 //! | `report/` | figures, written by `hoverbench report` |
 
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 
-use estimator::file::{ParamsFile, Provenance};
-use fit::export::{CurveLabels, LimitRecord};
+use estimator::file::ParamsFile;
+use fit::sweeps::{LimitSweep, NominalSweep, SweepFitOptions};
 use import::stand::{StandLog, StandOptions};
 use rig_protocol::{Clock, Rig};
 
@@ -26,8 +25,8 @@ use crate::bench_supply::SupplyControl;
 use crate::error::HostError;
 use crate::log::{self, StepRecord, SweepLog};
 use crate::sweep::{
-    LinkError, MassPlacer, SweepConfig, SweepEvent, SweepKind, SweepObserver, SweepOutcome,
-    calibrate, run_logged, sweep_header,
+    LinkError, MassPlacer, SweepConfig, SweepEnv, SweepEvent, SweepKind, SweepObserver,
+    SweepOutcome, calibrate, run_logged, sweep_header,
 };
 
 /// File names in a session folder.
@@ -92,34 +91,78 @@ impl SessionConfig {
     }
 }
 
-/// The fit of a session.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct FitSummary {
-    /// Steps fitted.
-    pub n_points: usize,
-    /// Rows skipped as invalid (supply not regulating).
-    pub skipped_invalid: usize,
-    /// Monomial coefficients of power (W) in thrust (g), ascending.
-    pub coefficients: Vec<f64>,
-    /// Thrust range of the fit, g.
-    pub valid_range_g: (f64, f64),
-    /// RMS residual, W.
-    pub rmse_w: f64,
-    /// R².
-    pub r_squared: f64,
-    /// Mean voltage of the nominal sweep, V.
-    pub supply_voltage_v: Option<f64>,
-    /// Thrust limit per rotor, g.
-    pub thrust_limit_g: Option<f64>,
-    /// Its uncertainty, g.
-    pub thrust_limit_uncertainty_g: Option<f64>,
-    /// Thrust limit of all rotors, kg.
-    pub thrust_limit_total_kg: Option<f64>,
-    /// Mean voltage of the limit sweep, V.
-    pub limit_voltage_v: Option<f64>,
-    /// Fit warnings.
-    pub warnings: Vec<String>,
+impl SessionConfig {
+    /// Checks every setting before anything moves: a bad degree, stream rate or step fails
+    /// here, not after both sweeps have run.
+    pub fn validate(&self) -> Result<(), HostError> {
+        if self.degree > fit::MAX_DEGREE {
+            return Err(HostError::Invalid(format!(
+                "degree {} is above the highest supported, {}",
+                self.degree,
+                fit::MAX_DEGREE
+            )));
+        }
+        if self.rotors == 0 {
+            return Err(HostError::Invalid("rotor count 0".into()));
+        }
+        for (what, c) in [("nominal", &self.nominal), ("limit", &self.limit)] {
+            c.validate()
+                .map_err(|e| HostError::Invalid(format!("{what} sweep: {e}")))?;
+        }
+        if !matches!(self.nominal.kind, SweepKind::Nominal { .. }) {
+            return Err(HostError::Invalid(
+                "the nominal sweep must be thrust-targeted".into(),
+            ));
+        }
+        if !matches!(self.limit.kind, SweepKind::Limit { .. }) {
+            return Err(HostError::Invalid(
+                "the limit sweep must step the throttle".into(),
+            ));
+        }
+        Ok(())
+    }
 }
+
+/// An advisory lock on a session folder (`DIR/.lock`, `flock`): two `characterise` runs on
+/// one folder would interleave their rows. Released when dropped (or when the process dies).
+#[derive(Debug)]
+pub struct SessionLock {
+    _file: std::fs::File,
+}
+
+/// The lock file in a session folder.
+pub const LOCK_FILE: &str = ".lock";
+
+impl SessionLock {
+    /// Takes the lock, or says that another run holds it.
+    pub fn acquire(dir: &Path) -> Result<Self, HostError> {
+        std::fs::create_dir_all(dir).map_err(|e| HostError::io(dir, e))?;
+        let path = dir.join(LOCK_FILE);
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(&path)
+            .map_err(|e| HostError::io(&path, e))?;
+        #[cfg(unix)]
+        {
+            use rustix::fs::{FlockOperation, flock};
+            match flock(&file, FlockOperation::NonBlockingLockExclusive) {
+                Ok(()) => {}
+                Err(rustix::io::Errno::WOULDBLOCK) => {
+                    return Err(HostError::Locked {
+                        dir: dir.to_owned(),
+                    });
+                }
+                Err(e) => return Err(HostError::io(&path, e.into())),
+            }
+        }
+        Ok(Self { _file: file })
+    }
+}
+
+/// The fit of a session (the summary of [`fit::sweeps::fit_sweeps`]).
+pub use fit::sweeps::FitSummary;
 
 /// Summary of one sweep.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -132,20 +175,21 @@ pub struct SweepSummary {
     pub resumed_steps: usize,
     /// How it ended.
     pub end: String,
-    /// Rig time of this run, s (0 when it was already complete).
+    /// Rig time of the whole session, s: this run's plus what the session's earlier
+    /// `summary.json` recorded (a run interrupted before its summary is not counted).
     pub rig_time_s: f64,
     /// Highest thrust logged, g.
     pub max_thrust_g: f64,
 }
 
 impl SweepSummary {
-    fn of(rows: &[StepRecord], outcome: Option<&SweepOutcome>) -> Self {
+    fn of(rows: &[StepRecord], outcome: Option<&SweepOutcome>, earlier_s: f64) -> Self {
         Self {
             steps: rows.len(),
             valid_steps: rows.iter().filter(|r| r.valid).count(),
             resumed_steps: outcome.map_or(rows.len(), |o| o.resumed_steps),
             end: outcome.map_or("complete (earlier run)".into(), |o| o.end.to_string()),
-            rig_time_s: outcome.map_or(0.0, |o| o.rig_time_s),
+            rig_time_s: earlier_s + outcome.map_or(0.0, |o| o.rig_time_s),
             max_thrust_g: rows.iter().map(|r| r.thrust_g).fold(0.0, f64::max),
         }
     }
@@ -170,16 +214,14 @@ pub struct SessionSummary {
     pub files: Vec<String>,
 }
 
-/// Writes `bytes` to `path` through a temporary file, fsync and rename.
+/// Writes `bytes` to `path` atomically (`outfile::write_atomic`: temporary file in the same
+/// folder, fsync, rename; the temporary file is removed on error).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), HostError> {
-    let tmp = path.with_extension("tmp~");
-    let mut f = std::fs::File::create(&tmp).map_err(|e| HostError::io(&tmp, e))?;
-    f.write_all(bytes).map_err(|e| HostError::io(&tmp, e))?;
-    f.sync_all().map_err(|e| HostError::io(&tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| HostError::io(path, e))
+    outfile::write_atomic(path, bytes).map_err(HostError::from)
 }
 
-/// Fits a nominal sweep and a limit sweep as `hoverbench fit SWEEP --limit LIMIT` does.
+/// Fits a nominal sweep and a limit sweep through [`fit::sweeps::fit_sweeps`], as
+/// `hoverbench fit SWEEP --limit LIMIT` does.
 pub fn fit_sweeps(
     sweep: &Path,
     limit: &Path,
@@ -192,117 +234,69 @@ pub fn fit_sweeps(
             source: Box::new(source),
         })
     };
-    let nominal = read(sweep)?;
-    let power = nominal
-        .column(|s| s.power_w)
-        .ok_or_else(|| HostError::Invalid(format!("{}: no power column", sweep.display())))?;
-    let thrust = nominal.thrust_g();
-    let fitted = fit::fit_polynomial(&thrust, &power, degree).map_err(|source| HostError::Fit {
-        what: format!("power against thrust in {}", sweep.display()),
-        source: Box::new(source),
-    })?;
-    let lim = read(limit)?;
-    let throttle = lim
-        .column(|s| s.throttle)
-        .ok_or_else(|| HostError::Invalid(format!("{}: no throttle column", limit.display())))?;
-    let std = lim.column(|s| s.thrust_std_g);
-    let opts = fit::ThrustLimitOptions {
-        thrust_std_g: std.as_deref(),
-        ..Default::default()
-    };
-    let l =
-        fit::thrust_limit(&throttle, &lim.thrust_g(), &opts).map_err(|source| HostError::Fit {
-            what: format!("thrust limit of {}", limit.display()),
-            source: Box::new(source),
-        })?;
-    let limit_v = lim.mean_voltage_v();
-    let record = LimitRecord {
-        limit: l,
-        supply_voltage_v: limit_v.unwrap_or(f64::NAN),
-    };
-    let provenance = Provenance {
-        input_file: sweep.display().to_string(),
-        input_sha256: import::sha256_hex(&nominal.bytes),
-        limit_input_file: Some(limit.display().to_string()),
-        limit_input_sha256: Some(import::sha256_hex(&lim.bytes)),
-        created: jiff::Timestamp::now().to_string(),
+    let nominal = NominalSweep::from_stand(&read(sweep)?, None)?;
+    let limit = LimitSweep::from_stand(&read(limit)?, None)?;
+    let opts = SweepFitOptions {
+        degree,
+        rotors,
         tool: format!("hoverbench rig-host {}", env!("CARGO_PKG_VERSION")),
+        created: jiff::Timestamp::now().to_string(),
     };
-    let labels = CurveLabels {
-        x: "thrust_g",
-        y: "power_w",
-        supply_voltage_v: nominal.mean_voltage_v(),
-    };
-    let file = fit::export::params_file(&fitted, &labels, rotors, Some(&record), provenance);
-    let stats = fitted.stats();
-    let summary = FitSummary {
-        n_points: stats.n_points,
-        skipped_invalid: nominal.skipped_invalid,
-        coefficients: fitted.monomial_coefficients(),
-        valid_range_g: fitted.domain(),
-        rmse_w: stats.rmse,
-        r_squared: stats.r_squared,
-        supply_voltage_v: nominal.mean_voltage_v(),
-        thrust_limit_g: Some(l.thrust_g),
-        thrust_limit_uncertainty_g: Some(l.uncertainty_g),
-        thrust_limit_total_kg: Some(l.thrust_g * f64::from(rotors) / 1000.0),
-        limit_voltage_v: limit_v,
-        warnings: fitted.warnings().iter().map(ToString::to_string).collect(),
-    };
-    Ok((file, summary))
+    let done = fit::sweeps::fit_sweeps(&nominal, Some(&limit), &opts)?;
+    Ok((done.params, done.summary))
 }
 
 /// Runs one sweep of a session into `csv` (resuming or skipping it as the folder says).
-#[allow(clippy::too_many_arguments)]
 fn session_sweep<R: Rig>(
     rig: &mut R,
-    clock: &dyn Clock,
-    identity: &rig_protocol::Identity,
-    supply: &mut dyn SupplyControl,
+    env: SweepEnv<'_>,
     config: &SweepConfig,
     header: &log::LogHeader,
     csv: &Path,
     samples: &Path,
     resume: bool,
-    observer: &mut dyn SweepObserver,
-    stop: &AtomicBool,
 ) -> Result<(Vec<StepRecord>, Option<SweepOutcome>), HostError>
 where
     R::Error: LinkError,
 {
     let columns = config.kind.columns();
-    if csv.exists() && resume {
+    let (log, resumed) = if csv.exists() && resume {
         let (log, state) = SweepLog::resume(csv, samples, header, columns)?;
         if state.complete {
             drop(log);
             return Ok((state.rows, None));
         }
-        let o = run_logged(
-            rig,
-            clock,
-            identity,
-            supply,
-            config,
-            &state.rows,
-            log,
-            observer,
-            stop,
-        )?;
-        return Ok((o.rows.clone(), Some(o)));
-    }
-    let log = SweepLog::create(csv, samples, header, columns)?;
-    let o = run_logged(
-        rig,
-        clock,
-        identity,
-        supply,
-        config,
-        &[],
-        log,
-        observer,
-        stop,
-    )?;
+        (log, state.rows)
+    } else {
+        (SweepLog::create(csv, samples, header, columns)?, Vec::new())
+    };
+    let o = run_logged(rig, env, config, &resumed, log)?;
     Ok((o.rows.clone(), Some(o)))
+}
+
+/// What an earlier run of the session recorded in its `summary.json`.
+#[derive(Debug, Default)]
+struct Earlier {
+    nominal_s: f64,
+    limit_s: f64,
+    calibration: String,
+}
+
+impl Earlier {
+    fn read(dir: &Path) -> Self {
+        let Ok(text) = std::fs::read_to_string(dir.join(files::SUMMARY_JSON)) else {
+            return Self::default();
+        };
+        let Ok(v) = serde_json::from_str::<serde_json::Value>(&text) else {
+            return Self::default();
+        };
+        let time = |k: &str| v[k]["rig_time_s"].as_f64().unwrap_or(0.0);
+        Self {
+            nominal_s: time("nominal"),
+            limit_s: time("limit"),
+            calibration: v["calibration"].as_str().unwrap_or_default().to_owned(),
+        }
+    }
 }
 
 /// Checks that `dir` can take a new session (it holds none), unless resuming.
@@ -320,7 +314,6 @@ pub fn check_session_dir(dir: &Path, resume: bool) -> Result<(), HostError> {
 }
 
 /// Runs a characterisation on a connected rig and supply; see the [module docs](self).
-#[allow(clippy::too_many_arguments)]
 pub fn characterise<R: Rig>(
     rig: &mut R,
     clock: &dyn Clock,
@@ -333,21 +326,30 @@ pub fn characterise<R: Rig>(
 where
     R::Error: LinkError,
 {
+    config.validate()?;
     let dir = &config.dir;
     check_session_dir(dir, config.resume)?;
-    std::fs::create_dir_all(dir).map_err(|e| HostError::io(dir, e))?;
+    let _lock = SessionLock::acquire(dir)?;
     let p = |name: &str| dir.join(name);
+    // A finished session resumed: nothing moves, nothing is calibrated again.
+    let earlier = Earlier::read(dir);
+    let finished =
+        config.resume && log::is_complete(&p(files::SWEEP)) && log::is_complete(&p(files::LIMIT));
     let err = |during: &'static str| {
         move |e: R::Error| HostError::Rig {
             during,
-            message: format!("{e:?}"),
+            source: Box::new(e),
         }
     };
     let identity = rig.identify().map_err(err("identify"))?;
     let first_run = !p(files::SWEEP).exists();
     let uncalibrated = rig.status().map_err(err("status"))?.calibration_points == 0;
     let calibration = match placer {
-        Some(placer) if (first_run || uncalibrated) && !config.calibration_masses_g.is_empty() => {
+        Some(placer)
+            if !finished
+                && (first_run || uncalibrated)
+                && !config.calibration_masses_g.is_empty() =>
+        {
             observer.event(SweepEvent::Note("calibrating the load cell"));
             calibrate(
                 rig,
@@ -361,10 +363,26 @@ where
         _ => String::new(),
     };
     let status = rig.status().map_err(err("status"))?;
-    let calibration = if calibration.is_empty() {
+    let calibration = if calibration.is_empty() && finished && !earlier.calibration.is_empty() {
+        earlier.calibration.clone()
+    } else if calibration.is_empty() {
         format!("kept by the rig ({} points)", status.calibration_points)
     } else {
         calibration
+    };
+    // A finished session keeps the calibration its logs were taken with.
+    let calibration_points = if finished {
+        std::fs::read_to_string(p(files::SWEEP))
+            .ok()
+            .and_then(|t| {
+                log::LogHeader::parse(&t)
+                    .get("calibration_points")?
+                    .parse()
+                    .ok()
+            })
+            .unwrap_or(status.calibration_points)
+    } else {
+        status.calibration_points
     };
     let supply_id = supply.identity();
     let mut done = Vec::new();
@@ -381,26 +399,15 @@ where
             cfg.voltage_v,
             p(csv).display()
         )));
-        let header = sweep_header(
-            cfg,
-            &identity,
-            status.calibration_points,
-            &calibration,
-            &supply_id,
-        );
-        let r = session_sweep(
-            rig,
+        let header = sweep_header(cfg, &identity, calibration_points, &calibration, &supply_id);
+        let env = SweepEnv {
             clock,
-            &identity,
+            identity: &identity,
             supply,
-            cfg,
-            &header,
-            &p(csv),
-            &p(samples),
-            config.resume,
             observer,
             stop,
-        )?;
+        };
+        let r = session_sweep(rig, env, cfg, &header, &p(csv), &p(samples), config.resume)?;
         done.push(csv.to_owned());
         done.push(samples.to_owned());
         Ok(r)
@@ -438,8 +445,8 @@ where
         bench: config.bench.clone(),
         dir: dir.display().to_string(),
         calibration,
-        nominal: SweepSummary::of(&nominal_rows, nominal.as_ref()),
-        limit: SweepSummary::of(&limit_rows, limit.as_ref()),
+        nominal: SweepSummary::of(&nominal_rows, nominal.as_ref(), earlier.nominal_s),
+        limit: SweepSummary::of(&limit_rows, limit.as_ref(), earlier.limit_s),
         fit,
         files: done,
     };
@@ -542,4 +549,33 @@ pub fn summary_text(s: &SessionSummary, nominal: &[StepRecord], limit: &[StepRec
         );
     }
     t
+}
+
+#[cfg(test)]
+mod lock_tests {
+    use super::*;
+
+    #[test]
+    fn a_session_folder_has_one_holder_at_a_time() {
+        let d = tempfile::tempdir().unwrap();
+        let first = SessionLock::acquire(d.path()).unwrap();
+        let err = SessionLock::acquire(d.path()).unwrap_err();
+        assert!(matches!(err, HostError::Locked { .. }), "{err}");
+        drop(first);
+        SessionLock::acquire(d.path()).unwrap();
+    }
+
+    #[test]
+    fn settings_are_checked_before_anything_moves() {
+        let mut c = SessionConfig::paper("unused");
+        c.validate().unwrap();
+        c.degree = 40;
+        assert!(c.validate().is_err());
+        let mut c = SessionConfig::paper("unused");
+        c.limit.kind = SweepKind::Limit { step_us: 0 };
+        assert!(c.validate().is_err());
+        let mut c = SessionConfig::paper("unused");
+        c.nominal.stream_rate_hz = 0;
+        assert!(c.validate().is_err());
+    }
 }

@@ -26,7 +26,8 @@ use rig_protocol::{ClientError, Clock, FaultCause, Identity, Rig, RigState};
 use supply::RegulationMode;
 
 use crate::bench_supply::{SupplyControl, SupplyStatus};
-use crate::error::HostError;
+use crate::controller::{ControllerConfig, Decision, StepController};
+use crate::error::{HostError, SupplyLoss};
 use crate::log::{LIMIT_COLUMNS, LogHeader, LoggedSample, NOMINAL_COLUMNS, StepRecord, SweepLog};
 use crate::settle::{SettleDetector, SettlePolicy, SettleState, Window};
 
@@ -128,6 +129,56 @@ impl Default for SweepConfig {
             host_timeout_recoveries: 5,
             supply_timeout: Duration::from_secs(10),
         }
+    }
+}
+
+impl SweepConfig {
+    /// Checks the settings before the rig moves: what would fail mid-sweep fails here.
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = |what: &str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(format!("{what} must be a positive number, got {v}"))
+            }
+        };
+        match self.kind {
+            SweepKind::Nominal {
+                step_g,
+                max_target_g,
+            } => {
+                positive("thrust step (g)", step_g)?;
+                if let Some(m) = max_target_g {
+                    positive("highest thrust target (g)", m)?;
+                }
+            }
+            SweepKind::Limit { step_us: 0 } => {
+                return Err("throttle step must be at least 1 µs, got 0".into());
+            }
+            SweepKind::Limit { .. } => {}
+        }
+        positive("supply voltage (V)", self.voltage_v)?;
+        positive("supply current limit (A)", self.current_limit_a)?;
+        positive("thrust tolerance (g)", self.tolerance_g)?;
+        if self.stream_rate_hz == 0 {
+            return Err("sample stream rate must be at least 1 Hz, got 0".into());
+        }
+        positive("settle timeout (s)", self.settle_timeout_s)?;
+        if self.max_attempts == 0 {
+            return Err("at least one throttle attempt per step is needed".into());
+        }
+        if self.tare_samples == 0 {
+            return Err("the tare needs at least one reading".into());
+        }
+        positive("largest throttle correction (µs)", self.max_correction_us)?;
+        if self.probe_fraction.is_nan() || self.probe_fraction <= 0.0 || self.probe_fraction >= 1.0
+        {
+            return Err(format!(
+                "first probe must be a fraction of the throttle range in (0, 1), got {}",
+                self.probe_fraction
+            ));
+        }
+        Ok(())
     }
 }
 
@@ -262,14 +313,14 @@ pub struct SweepOutcome {
 }
 
 /// What the sweep needs to know about a rig connection's errors.
-pub trait LinkError: std::fmt::Debug {
+pub trait LinkError: std::error::Error + Send + Sync + 'static {
     /// Whether the transport failed (as opposed to a timeout or a refusal).
     fn is_transport(&self) -> bool;
     /// Whether the rig refused a command because a fault is latched.
     fn is_faulted(&self) -> bool;
 }
 
-impl<E: std::fmt::Debug> LinkError for ClientError<E> {
+impl<E: std::fmt::Debug + Send + Sync + 'static> LinkError for ClientError<E> {
     fn is_transport(&self) -> bool {
         matches!(self, ClientError::Transport(_))
     }
@@ -289,12 +340,12 @@ fn rig_err<E: LinkError>(during: &'static str) -> impl Fn(E) -> HostError {
         if e.is_transport() {
             HostError::LinkLost {
                 during,
-                message: format!("{e:?}"),
+                source: Box::new(e),
             }
         } else {
             HostError::Rig {
                 during,
-                message: format!("{e:?}"),
+                source: Box::new(e),
             }
         }
     }
@@ -616,9 +667,7 @@ where
                                 .find(|(t, _)| *t < a)
                                 .or(marks.first())
                                 .map(|(_, m)| *m)
-                                .ok_or_else(|| {
-                                    HostError::SupplyLost("no status during the step".into())
-                                })?;
+                                .ok_or_else(|| HostError::SupplyLost(SupplyLoss::NoStatus))?;
                             return Ok(Attempt {
                                 throttle_us,
                                 window: w,
@@ -674,9 +723,8 @@ where
                 });
             }
             if Instant::now() > deadline {
-                return Err(HostError::SupplyLost(format!(
-                    "no mode reading within {:?}",
-                    self.cfg.supply_timeout
+                return Err(HostError::SupplyLost(SupplyLoss::NoMode(
+                    self.cfg.supply_timeout,
                 )));
             }
             self.check()?;
@@ -714,39 +762,21 @@ where
         }
     }
 
-    /// First throttle guess for `target` from the settled points so far.
-    fn guess(&self, history: &[(f64, f64)], target: f64) -> f64 {
-        let (umin, umax) = (self.umin(), self.umax());
-        let probe = umin + self.cfg.probe_fraction * (umax - umin);
-        let pts: Vec<(f64, f64)> = history
-            .iter()
-            .copied()
-            .filter(|&(_, t)| t > self.cfg.tolerance_g)
-            .collect();
-        let last = history.last().copied();
-        // Thrust grows about as the square of the throttle above a dead zone, so √thrust is
-        // close to linear in throttle: extrapolate in √thrust.
-        let u = match pts.len() {
-            0 => probe,
-            1 => {
-                let (u1, t1) = pts[0];
-                umin + (u1 - umin) * (target / t1).sqrt()
-            }
-            n => {
-                let (u1, t1) = pts[n - 2];
-                let (u2, t2) = pts[n - 1];
-                u2 + (target.sqrt() - t2.sqrt()) * (u2 - u1) / (t2.sqrt() - t1.sqrt())
-            }
-        };
-        let floor = last.map_or(umin, |(u, _)| u);
-        let u = if u.is_finite() { u } else { probe };
-        u.clamp(floor, floor + self.cfg.max_correction_us)
-            .clamp(umin, umax)
-            .round()
+    /// The throttle controller's settings for this sweep.
+    fn controller(&self) -> ControllerConfig {
+        ControllerConfig {
+            umin: self.umin(),
+            umax: self.umax(),
+            tolerance_g: self.cfg.tolerance_g,
+            max_correction_us: self.cfg.max_correction_us,
+            probe_fraction: self.cfg.probe_fraction,
+            max_attempts: self.cfg.max_attempts,
+        }
     }
 
     /// Hits `target` within the tolerance; returns the attempt, the settle time and whether
-    /// the rotor's maximum was reached.
+    /// the rotor's maximum was reached. The set-points come from the pure
+    /// [`StepController`]; this only settles the rig at each and reports back.
     fn hit_target(
         &mut self,
         step: usize,
@@ -754,62 +784,35 @@ where
         history: &[(f64, f64)],
         log: &mut Vec<LoggedSample>,
     ) -> Result<(Attempt, f64, bool), HostError> {
-        let (umin, umax) = (self.umin(), self.umax());
-        let tol = self.cfg.tolerance_g;
         let t_start = self.clock.now_us();
-        let mut u = if target <= 0.0 {
-            umin
-        } else {
-            self.guess(history, target)
-        };
-        let mut pts: Vec<(f64, f64, f64)> = Vec::new(); // (u, thrust, standard error)
+        let mut control = StepController::new(self.controller(), target, history);
+        let mut u = control.start();
         let mut best: Option<Attempt> = None;
-        for _ in 0..self.cfg.max_attempts.max(1) {
+        loop {
             let a = self.settle(u as u16, step, Some(target), log)?;
             let w = &a.window;
-            let t = w.thrust.mean;
             let se = w.thrust.std / (w.samples.len() as f64).sqrt();
+            let decision = control.observe(u, w.thrust.mean, se);
             let settle_s = self.clock.now_us().saturating_sub(t_start) as f64 * 1e-6;
-            if target <= 0.0 || (target - t).abs() <= tol {
-                return Ok((a, settle_s, false));
-            }
-            if u >= umax && t < target {
-                return Ok((a, settle_s, true));
-            }
-            // The previous point: this step's last attempt, else the last settled step.
-            let prev = pts
-                .last()
-                .copied()
-                .or_else(|| history.last().map(|&(u, t)| (u, t, se)));
-            // Secant in √thrust (see `guess`), through the previous point when it is usable,
-            // else through the dead-zone end at minimum throttle.
-            let mut slope = f64::NAN;
-            if let Some((up, tp, sep)) = prev {
-                if u > up && t - tp <= 3.0 * se.hypot(sep) && t < target {
-                    // More throttle, no more thrust: the rotor's maximum.
-                    return Ok((a, settle_s, true));
+            match decision {
+                Decision::Hit => return Ok((a, settle_s, false)),
+                Decision::Maximum => return Ok((a, settle_s, true)),
+                Decision::Next {
+                    throttle_us,
+                    best: b,
+                } => {
+                    if b {
+                        best = Some(a);
+                    }
+                    u = throttle_us;
                 }
-                if (u - up).abs() >= 1.0 && tp > tol {
-                    slope = (t.max(0.0).sqrt() - tp.sqrt()) / (u - up);
+                Decision::Missed { best: b } => {
+                    if b {
+                        best = Some(a);
+                    }
+                    break;
                 }
             }
-            if !(slope.is_finite() && slope > 0.0) {
-                slope = (t.max(tol).sqrt() / (u - umin).max(1.0)).max(1e-4);
-            }
-            pts.push((u, t, se));
-            let closer = best
-                .as_ref()
-                .is_none_or(|b| (target - b.window.thrust.mean).abs() > (target - t).abs());
-            if closer {
-                best = Some(a);
-            }
-            let du = ((target.sqrt() - t.max(0.0).sqrt()) / slope)
-                .clamp(-self.cfg.max_correction_us, self.cfg.max_correction_us);
-            let next = (u + du).clamp(umin, umax).round();
-            if next == u {
-                break;
-            }
-            u = next;
         }
         let settle_s = self.clock.now_us().saturating_sub(t_start) as f64 * 1e-6;
         let a = best.ok_or_else(|| HostError::Timeout {
@@ -819,7 +822,7 @@ where
         let msg = format!(
             "step {step}: target {target} g missed ({:.2} g after {} attempts); closest kept",
             a.window.thrust.mean,
-            pts.len()
+            control.attempts()
         );
         self.obs.event(SweepEvent::Note(&msg));
         Ok((a, settle_s, false))
@@ -869,10 +872,12 @@ where
                 return Ok(());
             }
             if Instant::now() > deadline {
-                return Err(HostError::SupplyLost(format!(
-                    "output not at {} V in constant-voltage mode within {:?} (mode {:?}, {:?})",
-                    self.cfg.voltage_v, self.cfg.supply_timeout, s.mode, s.measurement
-                )));
+                return Err(HostError::SupplyLost(SupplyLoss::NotRegulating {
+                    voltage_v: self.cfg.voltage_v,
+                    timeout: self.cfg.supply_timeout,
+                    mode: format!("{:?}", s.mode),
+                    measurement: format!("{:?}", s.measurement),
+                }));
             }
             self.check()?;
             let _ = self
@@ -1057,25 +1062,42 @@ pub fn safe_state(e: &HostError) -> &'static str {
     }
 }
 
+/// What a sweep runs with besides the rig: the rig's clock and identity, the bench supply,
+/// who hears its events, and the flag that stops it.
+pub struct SweepEnv<'a> {
+    /// The rig's clock.
+    pub clock: &'a dyn Clock,
+    /// The rig (from the handshake).
+    pub identity: &'a Identity,
+    /// The bench supply.
+    pub supply: &'a mut dyn SupplyControl,
+    /// Who hears the sweep's events.
+    pub observer: &'a mut dyn SweepObserver,
+    /// Set to stop the sweep safely.
+    pub stop: &'a AtomicBool,
+}
+
 /// Runs a sweep on a connected rig (handshake done); see the [module docs](self).
 ///
 /// `resumed` are the steps of an interrupted run (from [`SweepLog::resume`]); the sweep
 /// continues after them. On error the rig is brought to a safe state before returning.
-#[allow(clippy::too_many_arguments)]
 pub fn run_sweep<R: Rig>(
     rig: &mut R,
-    clock: &dyn Clock,
-    identity: &Identity,
-    supply: &mut dyn SupplyControl,
+    env: SweepEnv<'_>,
     config: &SweepConfig,
     resumed: &[StepRecord],
     sink: &mut dyn StepSink,
-    observer: &mut dyn SweepObserver,
-    stop: &AtomicBool,
 ) -> Result<SweepOutcome, HostError>
 where
     R::Error: LinkError,
 {
+    let SweepEnv {
+        clock,
+        identity,
+        supply,
+        observer,
+        stop,
+    } = env;
     let now = clock.now_us();
     let mut runner = Runner {
         rig,
@@ -1104,24 +1126,17 @@ where
 
 /// [`run_sweep`] into a [`SweepLog`], which is closed with the outcome or the error as its
 /// last line (`# end: complete`, `# end: stopped: <reason>`).
-#[allow(clippy::too_many_arguments)]
 pub fn run_logged<R: Rig>(
     rig: &mut R,
-    clock: &dyn Clock,
-    identity: &Identity,
-    supply: &mut dyn SupplyControl,
+    env: SweepEnv<'_>,
     config: &SweepConfig,
     resumed: &[StepRecord],
     mut log: SweepLog,
-    observer: &mut dyn SweepObserver,
-    stop: &AtomicBool,
 ) -> Result<SweepOutcome, HostError>
 where
     R::Error: LinkError,
 {
-    let r = run_sweep(
-        rig, clock, identity, supply, config, resumed, &mut log, observer, stop,
-    );
+    let r = run_sweep(rig, env, config, resumed, &mut log);
     match &r {
         Ok(o) => {
             if let SweepEnd::Plateau { thrust_g } = o.end {

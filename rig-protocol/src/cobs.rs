@@ -1,5 +1,6 @@
 //! Consistent Overhead Byte Stuffing: removes every `0x00` from a frame so that
-//! `0x00` can delimit frames on the wire and a receiver can resynchronise on it.
+//! `0x00` can delimit frames on the wire and a receiver can resynchronise on it. The coding is
+//! the `cobs` crate's (no_std); this module keeps the protocol's error type and bounds.
 
 use thiserror::Error;
 
@@ -15,7 +16,8 @@ pub enum CobsError {
     /// The encoded input is not valid COBS (a zero byte, or a code running past the end).
     #[error("invalid COBS data at byte {at}")]
     Invalid {
-        /// Offset of the offending byte in the encoded input.
+        /// Where decoding stopped: the offset of a zero byte in the encoded input, or the
+        /// number of bytes decoded before a code ran past the end.
         at: usize,
     },
 }
@@ -27,6 +29,9 @@ pub const fn max_encoded_len(len: usize) -> usize {
 
 /// Encodes `src` into `dst` (no trailing delimiter). Returns the encoded length.
 ///
+/// A thin wrapper over the `cobs` crate that keeps this crate's error type and its
+/// up-front size check.
+///
 /// ```
 /// let mut out = [0u8; 8];
 /// let n = rig_protocol::cobs::encode(&[0x11, 0x00, 0x22], &mut out).unwrap();
@@ -37,65 +42,33 @@ pub fn encode(src: &[u8], dst: &mut [u8]) -> Result<usize, CobsError> {
     if dst.len() < needed {
         return Err(CobsError::BufferTooSmall { needed });
     }
-    let mut code_at = 0usize;
-    let mut out = 1usize;
-    let mut code: u8 = 1;
-    for &b in src {
-        if b == 0 {
-            dst[code_at] = code;
-            code_at = out;
-            out += 1;
-            code = 1;
-        } else {
-            dst[out] = b;
-            out += 1;
-            code += 1;
-            if code == 0xFF {
-                dst[code_at] = code;
-                code_at = out;
-                out += 1;
-                code = 1;
-            }
-        }
-    }
-    dst[code_at] = code;
-    Ok(out)
+    cobs::try_encode(src, dst).map_err(|_| CobsError::BufferTooSmall { needed })
 }
 
 /// Decodes COBS `src` (without the delimiter) into `dst`. Returns the decoded length.
+///
+/// A zero byte anywhere in `src` is invalid (the delimiter is not part of a frame); the
+/// decoding itself is the `cobs` crate's.
 pub fn decode(src: &[u8], dst: &mut [u8]) -> Result<usize, CobsError> {
-    let mut i = 0usize;
-    let mut out = 0usize;
-    while i < src.len() {
-        let code = src[i];
-        if code == 0 {
-            return Err(CobsError::Invalid { at: i });
-        }
-        let run = usize::from(code - 1);
-        let end = i + 1 + run;
-        if end > src.len() {
-            return Err(CobsError::Invalid { at: i });
-        }
-        for (k, &b) in src[i + 1..end].iter().enumerate() {
-            if b == 0 {
-                return Err(CobsError::Invalid { at: i + 1 + k });
-            }
-            if out >= dst.len() {
-                return Err(CobsError::BufferTooSmall { needed: out + 1 });
-            }
-            dst[out] = b;
-            out += 1;
-        }
-        i = end;
-        if code != 0xFF && i < src.len() {
-            if out >= dst.len() {
-                return Err(CobsError::BufferTooSmall { needed: out + 1 });
-            }
-            dst[out] = 0;
-            out += 1;
-        }
+    if let Some(at) = src.iter().position(|&b| b == 0) {
+        return Err(CobsError::Invalid { at });
     }
-    Ok(out)
+    if src.is_empty() {
+        return Ok(0);
+    }
+    match cobs::decode(src, dst) {
+        Ok(report) if report.parsed_size() == src.len() => Ok(report.frame_size()),
+        Ok(report) => Err(CobsError::Invalid {
+            at: report.parsed_size(),
+        }),
+        Err(cobs::DecodeError::TargetBufTooSmall) => Err(CobsError::BufferTooSmall {
+            needed: dst.len() + 1,
+        }),
+        Err(cobs::DecodeError::InvalidFrame { decoded_bytes }) => {
+            Err(CobsError::Invalid { at: decoded_bytes })
+        }
+        Err(cobs::DecodeError::EmptyFrame) => Ok(0),
+    }
 }
 
 #[cfg(test)]

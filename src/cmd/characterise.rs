@@ -110,13 +110,15 @@ pub fn run(args: Args) -> Result<()> {
     config.limit.stream_rate_hz = args.rate;
     config.limit.settle = settle;
     config.limit.kind = SweepKind::Limit {
-        step_us: args.limit_step_us.max(1),
+        step_us: args.limit_step_us,
     };
     config.rotors = args.rotors;
     config.degree = args.degree;
     config.resume = args.resume;
     config.calibration_masses_g = args.calibrate.clone();
 
+    // Every setting is checked before the (simulated) rig is started or moved.
+    config.validate()?;
     session::check_session_dir(&args.output, args.resume)?;
     let stop = interrupt_flag();
     let mut progress = Progress::new("characterise", args.json);
@@ -232,6 +234,19 @@ pub fn run(args: Args) -> Result<()> {
         )),
         _ => None,
     };
+    // The session keeps its platform, so that `hoverbench report SESSION` needs no flags.
+    if let Some((m, p, battery)) = platform {
+        let stored = reports::session::SessionPlatform {
+            structure_mass_kg: m,
+            avionics_power_w: p,
+            battery_mass_kg: battery.map(|b| b.0),
+            battery_energy_density_wh_per_kg: battery.map(|b| b.1),
+        };
+        crate::output::write_atomic(
+            &args.output.join(reports::session::SessionPlatform::FILE),
+            stored.to_toml_string().as_bytes(),
+        )?;
+    }
     let figures = match platform {
         Some((m, p, battery)) if !args.no_figures => super::report::session_figures(
             &args.output,

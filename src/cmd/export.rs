@@ -1,6 +1,6 @@
 //! `hoverbench export`: parameters for flight stacks (PX4, ArduPilot) and firmware (C header).
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use autopilot::{
@@ -105,31 +105,31 @@ fn emit(text: &str, output: Option<&PathBuf>) -> Result<()> {
     Ok(())
 }
 
-/// A sweep's commands (as fractions of full scale) and thrusts, and the battery described.
+/// A sweep's commands (as fractions of full scale), thrusts and mean voltage.
 struct Sweep {
     command: Vec<f64>,
     thrust_g: Vec<f64>,
-    battery: Option<BatterySpec>,
+    voltage_v: Option<f64>,
 }
 
-impl Sweep {
-    fn input(&self, a: &FlightArgs, expo: autopilot::ExpoFit) -> ExportInput {
-        ExportInput {
-            expo,
-            sweep_name: a.sweep.display().to_string(),
-            takeoff_mass_kg: a.takeoff_mass,
-            rotors: a.rotors,
-            battery: self.battery,
-        }
-    }
+fn input(a: &FlightArgs, expo: autopilot::ExpoFit) -> Result<ExportInput> {
+    Ok(ExportInput {
+        expo,
+        sweep_name: a.sweep.display().to_string(),
+        takeoff_mass_kg: a.takeoff_mass,
+        rotors: a.rotors,
+        battery: battery(a)?,
+    })
 }
 
-fn sweep(a: &FlightArgs) -> Result<Sweep> {
-    let log = StandLog::read(&a.sweep, &a.stand.options())?;
+/// Reads one sweep and normalises its throttle once, with the same checks for every sweep
+/// (the main one and each `--also-sweep`).
+fn sweep(path: &Path, a: &FlightArgs) -> Result<Sweep> {
+    let log = StandLog::read(path, &a.stand.options())?;
     let throttle = log.column(|s| s.throttle).with_context(|| {
         format!(
             "{}: the sweep has no throttle column, so the thrust curve against the command cannot be fitted (name it with --throttle)",
-            a.sweep.display()
+            path.display()
         )
     })?;
     let command = match Command::guess(&throttle) {
@@ -148,8 +148,15 @@ fn sweep(a: &FlightArgs) -> Result<Sweep> {
         }
         other => other,
     };
-    let p: Vec<f64> = throttle.iter().map(|&t| command.normalise(t)).collect();
-    let battery = match (a.cells, a.capacity) {
+    Ok(Sweep {
+        command: throttle.iter().map(|&t| command.normalise(t)).collect(),
+        thrust_g: log.thrust_g(),
+        voltage_v: log.mean_voltage_v(),
+    })
+}
+
+fn battery(a: &FlightArgs) -> Result<Option<BatterySpec>> {
+    Ok(match (a.cells, a.capacity) {
         (Some(cells), Some(capacity_mah)) => {
             if !(capacity_mah.is_finite() && capacity_mah > 0.0) {
                 bail!("--capacity must be a positive number of mAh, got {capacity_mah}");
@@ -166,11 +173,6 @@ fn sweep(a: &FlightArgs) -> Result<Sweep> {
             })
         }
         _ => None,
-    };
-    Ok(Sweep {
-        command: p,
-        thrust_g: log.thrust_g(),
-        battery,
     })
 }
 
@@ -178,11 +180,11 @@ fn sweep(a: &FlightArgs) -> Result<Sweep> {
 pub fn run(args: Args) -> Result<()> {
     match args.target {
         Target::Px4(a) => {
-            let s = sweep(&a)?;
+            let s = sweep(&a.sweep, &a)?;
             let expo = fit_thrust_expo(&s.command, &s.thrust_g)
                 .with_context(|| format!("fitting THR_MDL_FAC to {}", a.sweep.display()))?;
             emit(
-                &Px4Params::new(&s.input(&a, expo))?.render(),
+                &Px4Params::new(&input(&a, expo)?)?.render(),
                 a.output.as_ref(),
             )
         }
@@ -193,58 +195,44 @@ pub fn run(args: Args) -> Result<()> {
                 spin_max: ar.spin_max,
             };
             spin.validate()?;
-            let s = sweep(a)?;
-            let act: Vec<f64> = s
-                .command
-                .iter()
-                .map(|&p| ardupilot_actuator(p, spin.spin_min, spin.spin_max))
-                .collect();
+            let main = sweep(&a.sweep, a)?;
+            let actuator = |s: &Sweep| -> Vec<f64> {
+                s.command
+                    .iter()
+                    .map(|&p| ardupilot_actuator(p, spin.spin_min, spin.spin_max))
+                    .collect()
+            };
             let expo = if ar.also.is_empty() {
-                fit_thrust_expo(&act, &s.thrust_g)
+                fit_thrust_expo(&actuator(&main), &main.thrust_g)
                     .with_context(|| format!("fitting MOT_THST_EXPO to {}", a.sweep.display()))?
             } else {
-                let b = s.battery.with_context(|| {
+                let b = battery(a)?.with_context(|| {
                     "--also-sweep fits through ArduPilot's voltage scaling: give --cells and --capacity".to_owned()
                 })?;
                 let v_max = f64::from(b.cells) * b.full_cell_v;
                 let mut sweeps = Vec::new();
-                for path in std::iter::once(&a.sweep).chain(&ar.also) {
-                    let log = StandLog::read(path, &a.stand.options())?;
-                    let volts = log.mean_voltage_v().with_context(|| {
+                let also = ar
+                    .also
+                    .iter()
+                    .map(|p| sweep(p, a).map(|s| (p, s)))
+                    .collect::<Result<Vec<_>>>()?;
+                for (path, s) in std::iter::once((&a.sweep, main)).chain(also) {
+                    let volts = s.voltage_v.with_context(|| {
                         format!(
                             "{}: no voltage column, needed to fit across voltages",
                             path.display()
                         )
                     })?;
-                    let throttle = log
-                        .column(|st| st.throttle)
-                        .with_context(|| format!("{}: no throttle column", path.display()))?;
-                    let command = match Command::guess(&throttle) {
-                        Command::Microseconds { .. } => Command::Microseconds {
-                            min_us: a.pwm_min,
-                            max_us: a.pwm_max,
-                        },
-                        other => other,
-                    };
                     sweeps.push(autopilot::VoltageSweep {
                         voltage_v: volts,
-                        actuator: throttle
-                            .iter()
-                            .map(|&t| {
-                                ardupilot_actuator(
-                                    command.normalise(t),
-                                    spin.spin_min,
-                                    spin.spin_max,
-                                )
-                            })
-                            .collect(),
-                        thrust_g: log.thrust_g(),
+                        actuator: actuator(&s),
+                        thrust_g: s.thrust_g,
                     });
                 }
                 autopilot::fit_expo_with_voltage_scaling(&sweeps, v_max)
                     .context("fitting MOT_THST_EXPO across the sweeps' voltages")?
             };
-            let mut input = s.input(a, expo);
+            let mut input = input(a, expo)?;
             if !ar.also.is_empty() {
                 let names: Vec<String> = std::iter::once(&a.sweep)
                     .chain(&ar.also)

@@ -4,8 +4,7 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
-use estimator::file::Provenance;
-use fit::export::{CurveLabels, LimitRecord};
+use fit::sweeps::{LimitSweep, NominalSweep, SweepFitOptions, fit_sweeps};
 use import::stand::{StandLog, StandOptions};
 use import::{Table, YSource};
 
@@ -90,33 +89,10 @@ struct Report<'a> {
     written: Vec<String>,
 }
 
-/// The data to fit: x, y, their names, and what the reader did.
-struct Data {
-    x: Vec<f64>,
-    y: Vec<f64>,
-    x_name: String,
-    y_name: String,
-    y_label: String,
-    kind: &'static str,
-    notes: Vec<String>,
-    skipped_invalid: usize,
-    supply_voltage_v: Option<f64>,
-    bytes: Vec<u8>,
-}
-
-fn positive_volts(v: Option<f64>) -> Result<Option<f64>> {
-    match v {
-        Some(v) if !(v.is_finite() && v > 0.0) => {
-            bail!("supply voltage must be a positive number of volts, got {v}")
-        }
-        v => Ok(v),
-    }
-}
-
-fn generic_data(args: &Args, x: &str, y: &str) -> Result<Data> {
+fn generic_data(args: &Args, x: &str, y: &str) -> Result<NominalSweep> {
     let (table, bytes) = Table::read(&args.file)?;
     let xy = table.xy(x, &YSource::Column(y.to_owned()))?;
-    let volts = match positive_volts(args.volts)? {
+    let volts = match args.volts {
         Some(v) => Some(v),
         None if table.has("voltage_v") => {
             let v = table.column("voltage_v")?;
@@ -124,42 +100,12 @@ fn generic_data(args: &Args, x: &str, y: &str) -> Result<Data> {
         }
         None => None,
     };
-    Ok(Data {
-        x: xy.x,
-        y: xy.y,
-        x_name: x.to_owned(),
-        y_name: y.to_owned(),
-        y_label: y.to_owned(),
-        kind: "generic table",
-        notes: Vec::new(),
-        skipped_invalid: xy.skipped_invalid,
-        supply_voltage_v: volts,
-        bytes,
-    })
-}
-
-fn stand_data(args: &Args) -> Result<Data> {
-    let log = StandLog::read(&args.file, &args.stand.options())?;
-    let volts = positive_volts(args.volts)?;
-    let mut notes = log.notes.clone();
-    let (power, source) = log.power_w(volts)?;
-    if let import::stand::PowerSource::AssumedVoltage(v) = source {
-        notes.push(format!(
-            "no voltage logged: power taken as {v} V (--volts) × current"
-        ));
-    }
-    Ok(Data {
-        x: log.thrust_g(),
-        y: power,
-        x_name: "thrust_g".into(),
-        y_name: "power_w".into(),
-        y_label: source.label(),
-        kind: log.kind.describe(),
-        notes,
-        skipped_invalid: log.skipped_invalid,
-        supply_voltage_v: volts.or_else(|| log.mean_voltage_v()),
-        bytes: log.bytes,
-    })
+    Ok(NominalSweep::generic(
+        xy,
+        volts,
+        &args.file.display().to_string(),
+        &bytes,
+    )?)
 }
 
 /// Runs the subcommand.
@@ -169,92 +115,45 @@ pub fn run(args: Args) -> Result<()> {
     }
     let data = match (&args.x, &args.y) {
         (Some(x), Some(y)) => generic_data(&args, x, y)?,
-        _ => stand_data(&args)?,
+        _ => {
+            let log = StandLog::read(&args.file, &args.stand.options())?;
+            NominalSweep::from_stand(&log, args.volts)?
+        }
     };
-    let fitted = fit::fit_polynomial(&data.x, &data.y, args.degree).with_context(|| {
-        format!(
-            "fitting {} against {} in {}",
-            data.y_name,
-            data.x_name,
-            args.file.display()
-        )
-    })?;
-    let supply_voltage_v = data.supply_voltage_v;
-
     let limit = match &args.limit {
         None => None,
         Some(path) => {
             let log = StandLog::read(path, &StandOptions::default())?;
-            let throttle = log.column(|s| s.throttle).with_context(|| {
-                format!("{}: a limit sweep needs a throttle column", path.display())
-            })?;
-            let thrust = log.thrust_g();
-            let std = log.column(|s| s.thrust_std_g);
-            let opts = fit::ThrustLimitOptions {
-                thrust_std_g: std.as_deref(),
-                ..Default::default()
-            };
-            let l = fit::thrust_limit(&throttle, &thrust, &opts)
-                .with_context(|| format!("extracting the thrust limit from {}", path.display()))?;
-            let v = positive_volts(args.limit_volts)?
-                .or_else(|| log.mean_voltage_v())
-                .with_context(|| {
-                    format!(
-                        "{} has no voltage column: give --limit-volts",
-                        path.display()
-                    )
-                })?;
-            Some((
-                LimitRecord {
-                    limit: l,
-                    supply_voltage_v: v,
-                },
-                path,
-                log.bytes,
-            ))
+            Some(LimitSweep::from_stand(&log, args.limit_volts)?)
         }
     };
-
-    let labels = CurveLabels {
-        x: &data.x_name,
-        y: &data.y_name,
-        supply_voltage_v,
-    };
-    let provenance = Provenance {
-        input_file: args.file.display().to_string(),
-        input_sha256: import::sha256_hex(&data.bytes),
-        limit_input_file: limit.as_ref().map(|(_, p, _)| p.display().to_string()),
-        limit_input_sha256: limit.as_ref().map(|(_, _, b)| import::sha256_hex(b)),
-        created: jiff::Timestamp::now().to_string(),
+    let opts = SweepFitOptions {
+        degree: args.degree,
+        rotors: args.rotors,
         tool: format!("hoverbench {}", env!("CARGO_PKG_VERSION")),
+        created: jiff::Timestamp::now().to_string(),
     };
-    let file = fit::export::params_file(
-        &fitted,
-        &labels,
-        args.rotors,
-        limit.as_ref().map(|(l, _, _)| l),
-        provenance,
-    );
+    let done = fit_sweeps(&data, limit.as_ref(), &opts)?;
+    let (file, fitted) = (&done.params, &done.fit);
 
     // Everything is computed and checked before anything is written.
-    let mut written = Vec::new();
-    let blob = match &args.blob {
-        Some(path) => {
-            let params = file
-                .to_params()
-                .with_context(|| format!("--blob {}", path.display()))?;
-            let mut buf = [0u8; estimator::params::MAX_BLOB_LEN];
-            let n = params.encode(&mut buf)?;
-            Some((path, buf[..n].to_vec()))
-        }
-        None => None,
-    };
+    let mut outputs = Vec::new();
     if let Some(path) = &args.output {
-        output::write_atomic(path, file.to_toml_string().as_bytes())?;
-        written.push(path.display().to_string());
+        outputs.push((path.clone(), file.to_toml_string().into_bytes()));
     }
-    if let Some((path, bytes)) = blob {
-        output::write_atomic(path, &bytes)?;
+    if let Some(path) = &args.blob {
+        let params = file
+            .to_params()
+            .with_context(|| format!("--blob {}", path.display()))?;
+        let mut buf = [0u8; estimator::params::MAX_BLOB_LEN];
+        let n = params.encode(&mut buf)?;
+        outputs.push((path.clone(), buf[..n].to_vec()));
+    }
+    let mut inputs = vec![args.file.clone()];
+    inputs.extend(args.limit.iter().cloned());
+    let mut written = Vec::new();
+    for (path, bytes) in &outputs {
+        output::write_atomic_checked(path, bytes, &inputs)?;
         written.push(path.display().to_string());
     }
 
@@ -262,7 +161,7 @@ pub fn run(args: Args) -> Result<()> {
     let rep = Report {
         input: args.file.display().to_string(),
         log_kind: data.kind,
-        notes: data.notes.clone(),
+        notes: done.notes.clone(),
         x: &data.x_name,
         y: &data.y_label,
         degree: fitted.degree(),
@@ -270,7 +169,7 @@ pub fn run(args: Args) -> Result<()> {
         coefficients_scaled: fitted.coeffs_scaled(),
         center: fitted.center(),
         scale: fitted.scale(),
-        valid_range: fitted.domain(),
+        valid_range: done.summary.valid_range_g,
         n_points: stats.n_points,
         skipped_invalid_rows: data.skipped_invalid,
         rmse: stats.rmse,
@@ -279,7 +178,7 @@ pub fn run(args: Args) -> Result<()> {
         max_residual_at: stats.max_residual.map(|m| m.x),
         condition_number: stats.condition_number,
         coefficient_std_errors: stats.std_errors_monomial.as_deref(),
-        warnings: fitted.warnings().iter().map(ToString::to_string).collect(),
+        warnings: file.fit.warnings.clone(),
         thrust_limit: file.thrust_limit.as_ref().map(|l| LimitJson {
             per_rotor_g: l.per_rotor_g,
             uncertainty_g: l.uncertainty_g,

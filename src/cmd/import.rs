@@ -87,7 +87,11 @@ pub fn run(args: Args) -> Result<()> {
         ];
         comments.extend(log.notes.iter().map(|n| format!("note: {n}")));
         comments.extend(log.comments.iter().map(|c| format!("source comment: {c}")));
-        output::write_atomic(path, steps_to_csv(&log.steps, &comments).as_bytes())?;
+        output::write_atomic_checked(
+            path,
+            steps_to_csv(&log.steps, &comments).as_bytes(),
+            std::slice::from_ref(&args.file),
+        )?;
         written = Some(path.display().to_string());
     }
     let rep = Report {

@@ -43,12 +43,13 @@ pub struct Args {
     /// endurance_mean_min, optional endurance_std_min and samples).
     #[arg(long, value_name = "CSV")]
     flights: Option<PathBuf>,
-    /// m_S: structure mass without battery (kg; or e.g. 431g).
+    /// m_S: structure mass without battery (kg; or e.g. 431g) [default: the session's
+    /// platform.toml].
     #[arg(long, value_name = "MASS", value_parser = output::mass_kg, allow_negative_numbers = true)]
-    structure_mass: f64,
-    /// p_A: avionics power (W).
+    structure_mass: Option<f64>,
+    /// p_A: avionics power (W) [default: the session's platform.toml].
     #[arg(long, value_name = "POWER", value_parser = output::power_w, allow_negative_numbers = true)]
-    avionics_power: f64,
+    avionics_power: Option<f64>,
     /// m_P: payload mass for Fig. 4, Fig. 5 and the mission (kg).
     #[arg(long, value_name = "MASS", value_parser = output::mass_kg, allow_negative_numbers = true, default_value = "0")]
     payload_mass: f64,
@@ -108,8 +109,8 @@ pub fn session_figures(
         catalogue: None,
         plan,
         flights: None,
-        structure_mass: structure_mass_kg,
-        avionics_power: avionics_power_w,
+        structure_mass: Some(structure_mass_kg),
+        avionics_power: Some(avionics_power_w),
         payload_mass: 0.0,
         payload_power: 0.0,
         thrust_limit: None,

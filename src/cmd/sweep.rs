@@ -368,17 +368,14 @@ pub fn run(args: Args) -> Result<()> {
         )
     };
     let mut progress = Progress::new(if args.limit { "limit" } else { "sweep" }, args.json);
-    let result = run_logged(
-        &mut rig,
-        &clock,
-        &identity,
-        &mut supply,
-        &config,
-        &resumed,
-        log,
-        &mut progress,
+    let env = rig_host::sweep::SweepEnv {
+        clock: &clock,
+        identity: &identity,
+        supply: &mut supply,
+        observer: &mut progress,
         stop,
-    );
+    };
+    let result = run_logged(&mut rig, env, &config, &resumed, log);
     progress.finish();
     let outcome: SweepOutcome = result.map_err(|e| stopped(e, &args.output))?;
     report(&args, &samples, &outcome)
