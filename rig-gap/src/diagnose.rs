@@ -16,8 +16,11 @@ use crate::{RigGapError, StandSweep};
 /// 1000–1099 (`hoverbench rig-gap-eval --seed 1000`) and are reported on seeds 0–199.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Options {
-    /// Measurement noise floors residuals are normalised by.
+    /// Measurement noise floors residuals are normalised by when the data are too few to
+    /// measure their scatter.
     pub floors: NoiseFloors,
+    /// The least noise floors a measured scatter can lower them to.
+    pub min_floors: NoiseFloors,
     /// Huber threshold, in noise σ.
     pub huber_delta: f64,
     /// Held-out χ² per observation at or below which the gap is within noise.
@@ -44,6 +47,12 @@ impl Default for Options {
     fn default() -> Self {
         Self {
             floors: NoiseFloors::default(),
+            min_floors: NoiseFloors {
+                power: (0.003, 0.002),
+                voltage: (0.000_5, 0.000_5),
+                speed: (0.002, 0.001),
+                torque: (0.01, 0.005),
+            },
             huber_delta: 3.0,
             none_chi2_per_obs: 3.0,
             min_relative_gain: 0.25,
@@ -432,7 +441,7 @@ fn usable_quantities(tr: &[&Sweep], notes: &mut Vec<String>) -> Vec<Quantity> {
         .collect()
 }
 
-/// Raises each quantity's relative noise floor to the step-to-step scatter of the base model's
+/// Sets each quantity's relative noise floor to the step-to-step scatter of the base model's
 /// residuals on every run (a property of the sensors, not of the model): second differences of
 /// the residuals ordered by thrust, /√6 — a smooth systematic gap nearly cancels in them,
 /// measurement noise does not.
@@ -441,6 +450,7 @@ fn scatter_floors(
     p: &Params,
     qs: &[Quantity],
     defaults: &NoiseFloors,
+    least: &NoiseFloors,
     scale: &Scale,
     notes: &mut Vec<String>,
 ) -> NoiseFloors {
@@ -474,21 +484,20 @@ fn scatter_floors(
         // Median of squared second differences → σ² (robust to an odd step; a linear trend
         // cancels): median(χ²₁)·6σ² ≈ 0.455·6σ².
         let sigma = (d2[d2.len() / 2] / (6.0 * 0.455)).sqrt();
-        let slot = match q {
-            Quantity::PowerW | Quantity::CurrentA => &mut floors.power,
-            Quantity::VoltageV => &mut floors.voltage,
-            Quantity::SpeedRpm => &mut floors.speed,
-            Quantity::TorqueNm => &mut floors.torque,
+        let (slot, min) = match q {
+            Quantity::PowerW | Quantity::CurrentA => (&mut floors.power, least.power),
+            Quantity::VoltageV => (&mut floors.voltage, least.voltage),
+            Quantity::SpeedRpm => (&mut floors.speed, least.speed),
+            Quantity::TorqueNm => (&mut floors.torque, least.torque),
         };
-        if sigma > slot.0 {
-            notes.push(format!(
-                "{} noise floor raised from {:.2} % to {:.2} % (step-to-step scatter)",
-                q.name(),
-                100.0 * slot.0,
-                100.0 * sigma
-            ));
-            slot.0 = sigma;
-        }
+        let measured = sigma.max(min.0);
+        notes.push(format!(
+            "{} noise floor {:.2} % (step-to-step scatter {:.2} %)",
+            q.name(),
+            100.0 * measured,
+            100.0 * sigma
+        ));
+        *slot = (measured, min.1);
     }
     floors
 }
@@ -652,6 +661,7 @@ pub fn diagnose(
         &first.params,
         &qs,
         &opts.floors,
+        &opts.min_floors,
         &ctx.scale,
         &mut notes,
     );

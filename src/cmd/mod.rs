@@ -16,6 +16,7 @@ pub mod paper;
 pub mod ports;
 pub mod report;
 pub mod rig_gap;
+pub mod rig_gap_eval;
 pub mod sim_rig;
 pub mod simulate_flights;
 pub mod sweep;
@@ -59,6 +60,8 @@ pub enum Command {
     /// Diagnose the gap between the physical motor-propeller-supply model and stand logs:
     /// where they part, which unmodelled effect causes it, how far it shrinks.
     RigGap(rig_gap::Args),
+    /// The stand gap diagnosis' blind study on the stand truth simulator.
+    RigGapEval(rig_gap_eval::Args),
     /// Run the simulated rig (the real firmware core on simulated peripherals) behind a
     /// pseudo-terminal and print its port path.
     SimRig(sim_rig::Args),
@@ -84,5 +87,6 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Report(a) => report::run(a),
         Command::SimRig(a) => sim_rig::run(a),
         Command::RigGap(a) => rig_gap::run(a),
+        Command::RigGapEval(a) => rig_gap_eval::run(a),
     }
 }
