@@ -16,7 +16,7 @@ fn rig_gap_json_on_a_one_cell_stand_names_the_sag() {
         .expect("binary")
         .args(["rig-gap", "--json"])
         .arg(shared(
-            "rcbenchmark/StepsTest202306052008_2023-06-05_200852.csv",
+            "rcbenchmark/StepsTest20230615_2023-06-15_174003.csv",
         ))
         .output()
         .expect("runs");
@@ -45,7 +45,7 @@ fn rig_gap_json_on_a_one_cell_stand_names_the_sag() {
     let after = e["heldout_error_after_pct"]["voltage_v"]
         .as_f64()
         .expect("number");
-    assert!(after < 0.5 * before, "{before} → {after}");
+    assert!(after < 0.2 * before, "{before} → {after}");
 }
 
 #[test]

@@ -419,7 +419,8 @@ fn usable_quantities(tr: &[&Sweep], notes: &mut Vec<String>) -> Vec<Quantity> {
             } else {
                 (d2[d2.len() / 2] / (6.0 * 0.455)).sqrt()
             };
-            if scatter > MAX_SCATTER {
+            // (Only with enough steps: over a few coarse steps curvature is not scatter.)
+            if pts.len() >= 8 && scatter > MAX_SCATTER {
                 notes.push(format!(
                     "{} left out: its steps scatter by {:.0} % of its largest value about a smooth \
                      curve; the sensor is likely below its resolution",
@@ -695,7 +696,7 @@ pub fn diagnose(
                 .heldout_chi2_by_run
                 .iter()
                 .zip(&current.heldout_chi2_by_run)
-                .find(|(a, b)| a.1 > b.1 * 1.1 + 0.5)
+                .find(|(a, b)| a.1 > b.1 * 1.02 + 0.05)
                 .map(|(a, _)| a.0.clone());
             let at_bound = e.params().iter().find(|&&p| {
                 let (lo, hi) = fit::bounds(p, &train_scale);
@@ -711,7 +712,7 @@ pub fn diagnose(
                     current
                         .heldout_chi2_by_quantity
                         .get(*q)
-                        .is_some_and(|b| **v > b * 1.1 + 0.5)
+                        .is_some_and(|b| **v > b * 1.02 + 0.05)
                 })
                 .map(|(q, _)| *q);
             let rejected_because = if within_noise && round == 0 {

@@ -142,6 +142,20 @@ pub fn runs_of_log(log: &StandLog) -> Result<Vec<StandSweep>, RigGapError> {
         let idle_v: Vec<f64> = run[..first].iter().filter_map(|s| s.voltage_v).collect();
         let open_circuit_v =
             (!idle_v.is_empty()).then(|| idle_v.iter().copied().fold(f64::NEG_INFINITY, f64::max));
+        // The load cell's tare: its reading at the lowest command before the run spins up
+        // (when that command is the run's lowest, i.e. the motor is stopped).
+        let lowest = run
+            .iter()
+            .filter_map(|s| s.throttle)
+            .fold(f64::INFINITY, f64::min);
+        let tare_g = run[..first]
+            .iter()
+            .find(|s| s.throttle.is_some_and(|t| t <= lowest))
+            .map(|s| s.thrust_g)
+            // A reading within 1 % of the run's largest thrust is the cell's noise, not a tare
+            // shift worth taking off every step.
+            .filter(|t| t.abs() > 0.01 * t_max)
+            .unwrap_or(0.0);
         let n = kept.len();
         let mut obs = Vec::with_capacity(n);
         let mut meta = Vec::with_capacity(n);
@@ -150,7 +164,7 @@ pub fn runs_of_log(log: &StandLog) -> Result<Vec<StandSweep>, RigGapError> {
                 .power_w
                 .or_else(|| s.voltage_v.zip(s.current_a).map(|(v, i)| v * i));
             obs.push(Observation {
-                thrust_g: s.thrust_g,
+                thrust_g: s.thrust_g - tare_g,
                 time_frac: if n > 1 {
                     j as f64 / (n - 1) as f64
                 } else {

@@ -51,7 +51,19 @@ fn voltage_err(d: &Diagnosis) -> (f64, f64) {
 fn one_cell_ramp_shows_the_pack_sag_as_supply_sag() {
     // 2023-06-15: a slow 1000→2000 µs ramp on a 1S pack; even rows train, odd rows are held out.
     let d = default_split("rcbenchmark/StepsTest20230615_2023-06-15_174003.csv", None);
-    assert_eq!(d.verdict, ["supply_sag"], "{:?}", d.candidates);
+    // The sag is named first and explains most of the gap; what is left (the top of the ramp,
+    // where the ESC of the nearly flat pack starts cutting current) may stay unexplained.
+    assert_eq!(d.effects[0].effect, "supply_sag", "{:?}", d.candidates);
+    assert!(
+        d.effects[0].share_of_gap > 0.8,
+        "{}",
+        d.effects[0].share_of_gap
+    );
+    assert!(
+        d.verdict == ["supply_sag"] || d.verdict == ["unexplained"],
+        "{:?}",
+        d.verdict
+    );
     let r = source_resistance(&d);
     assert!((0.1..0.3).contains(&r), "source resistance {r} Ω");
     let (before, after) = voltage_err(&d);
@@ -70,14 +82,28 @@ fn one_cell_step_test_trained_on_one_sweep_held_out_on_the_next() {
     );
     assert_eq!(d.train.len(), 1);
     assert_eq!(d.heldout.len(), 1);
-    assert_eq!(d.effects[0].effect, "supply_sag");
-    let r = source_resistance(&d);
-    assert!((0.1..0.35).contains(&r), "source resistance {r} Ω");
-    let (before, after) = voltage_err(&d);
-    assert!(
-        after < 0.35 * before,
-        "voltage {before:.2} % → {after:.2} %"
-    );
+    // The sag is the strongest candidate by far (it cuts the held-out voltage error most), but
+    // fitted jointly it leaves the held-out power slightly worse, so it is not added: a model
+    // change that makes any held-out prediction worse is not taken.
+    let sag = d
+        .candidates
+        .iter()
+        .find(|c| c.effects.len() == 1 && c.effects[0] == motor_model::Effect::SupplySag)
+        .expect("supply_sag tried");
+    let best_other = d
+        .candidates
+        .iter()
+        .filter(|c| c.effects.len() == 1 && c.effects[0] != motor_model::Effect::SupplySag)
+        .map(|c| c.heldout_chi2_per_obs)
+        .fold(f64::INFINITY, f64::min);
+    assert!(sag.heldout_chi2_per_obs < 0.5 * best_other);
+    assert!(d.after.heldout_chi2_per_obs <= d.baseline.heldout_chi2_per_obs);
+    for (q, after) in &d.after.heldout_error_pct {
+        assert!(
+            *after <= d.baseline.heldout_error_pct[q] * 1.01 + 1e-9,
+            "{q} worse"
+        );
+    }
     // Where: the base model (a stiff supply) over-predicts the voltage most at the top.
     let v = d
         .r#where

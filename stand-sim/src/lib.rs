@@ -104,8 +104,8 @@ pub struct Scenario {
     pub truth: Truth,
     /// Its magnitude (0 … 1 of the family's range).
     pub magnitude: f64,
-    /// Largest relative change the truth makes to the electrical power or current at the same
-    /// thrust anywhere in the range (noise-free), fraction.
+    /// How far the truth moves a fitted model's power, current or voltage on the held-out
+    /// sweep (noise-free; see `fitted_impact`), fraction.
     pub power_impact: f64,
     /// Training log: two up-sweeps, separated by a pause.
     #[serde(skip)]
@@ -340,18 +340,18 @@ impl Scenario {
         };
         let capacity_ah = i_max / 15.0 * (1.0 + rng.random::<f64>());
         let mut noise = ChaCha8Rng::seed_from_u64(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15));
-        let train_csv = simulate(
-            &world,
-            &[up(10, 0.25), up(10, 0.28)],
-            &mut noise,
-            capacity_ah,
-            1.0,
-        );
+        let train_sched = [up(10, 0.25), up(10, 0.28)];
+        let train_csv = simulate(&world, &train_sched, &mut noise, capacity_ah, 1.0, 1.0);
         let mut schedule = up(8, 0.3);
         let mut down: Vec<f64> = schedule.iter().rev().skip(1).copied().collect();
         schedule.append(&mut down);
-        let heldout_csv = simulate(&world, &[schedule], &mut noise, capacity_ah, 0.85);
-        let power_impact = impact(&world, capacity_ah);
+        let held_sched = [schedule];
+        let heldout_csv = simulate(&world, &held_sched, &mut noise, capacity_ah, 0.85, 1.0);
+        let mut quiet = ChaCha8Rng::seed_from_u64(0);
+        let power_impact = fitted_impact(
+            &simulate(&world, &train_sched, &mut quiet, capacity_ah, 1.0, 0.0),
+            &simulate(&world, &held_sched, &mut quiet, capacity_ah, 0.85, 0.0),
+        );
         Self {
             seed,
             truth,
@@ -378,6 +378,7 @@ fn simulate(
     rng: &mut ChaCha8Rng,
     capacity_ah: f64,
     soc0: f64,
+    noise: f64,
 ) -> String {
     let mut s = State {
         soc: soc0,
@@ -402,9 +403,15 @@ fn simulate(
             let idle = w.operate(0.05, &s);
             w.advance(&mut s, &idle, 60.0, capacity_ah);
         }
-        // Idle row before the sweep (the pack's open-circuit voltage).
+        // Idle row before the sweep (the pack's open-circuit voltage, the load cell's tare).
         let idle = w.operate(0.0, &s);
-        push_row(&mut csv, &s, 0.0, 0.0, idle.v_bus, 0.0, 0.0, 0.0, rng);
+        let mut tare_g = noise * (0.002 * t_full_g) * gauss(rng);
+        if w.truth == Truth::LoadcellDrift {
+            tare_g += offset_g + 0.06 * w.magnitude * t_full_g * (1.0 - (-s.time_s / 90.0).exp());
+        }
+        push_row(
+            &mut csv, &s, 0.0, tare_g, idle.v_bus, 0.0, 0.0, 0.0, rng, noise,
+        );
         for &u in sweep {
             let op = w.operate(u, &s);
             w.advance(&mut s, &op, DWELL_S, capacity_ah);
@@ -422,12 +429,13 @@ fn simulate(
                 &mut csv,
                 &s,
                 u,
-                reading_g + (0.002 * t_full_g) * gauss(rng),
+                reading_g + noise * (0.002 * t_full_g) * gauss(rng),
                 op.v_bus,
                 op.i_bus,
                 op.rpm,
                 op.torque_nm,
                 rng,
+                noise,
             );
         }
     }
@@ -445,11 +453,12 @@ fn push_row(
     rpm: f64,
     q: f64,
     rng: &mut ChaCha8Rng,
+    noise: f64,
 ) {
-    let v_m = v * (1.0 + 0.0005 * gauss(rng));
-    let i_m = i * (1.0 + 0.004 * gauss(rng));
-    let rpm_m = (rpm * (1.0 + 0.002 * gauss(rng))).round();
-    let q_m = q * (1.0 + 0.01 * gauss(rng));
+    let v_m = v * (1.0 + noise * 0.0005 * gauss(rng));
+    let i_m = i * (1.0 + noise * 0.004 * gauss(rng));
+    let rpm_m = (rpm * (1.0 + noise * 0.002 * gauss(rng))).round();
+    let q_m = q * (1.0 + noise * 0.01 * gauss(rng));
     csv.push_str(&format!(
         "{:.2},{throttle:.4},{thrust_g:.4},{v_m:.5},{i_m:.5},{:.5},{rpm_m},{q_m:.6}\n",
         s.time_s,
@@ -457,72 +466,91 @@ fn push_row(
     ));
 }
 
-/// Largest relative change of power (or, for a sagging supply, current) the truth makes at
-/// the same thrust, noise-free, over the training range.
-fn impact(w: &World, capacity_ah: f64) -> f64 {
-    let base = World {
-        truth: Truth::None,
-        // A stiff supply at the pack's full open-circuit voltage.
-        supply_v: if w.truth == Truth::SupplySag {
-            w.cells as f64 * interp(&OCV, 1.0)
-        } else {
-            w.supply_v
-        },
-        ..w.clone()
-    };
-    let fresh = || State {
-        soc: 1.0,
-        v_rc: 0.0,
-        t_wind: 20.0,
-        t_case: 20.0,
-        time_s: 0.0,
-        last_thrust_n: 0.0,
-    };
-    let mut s = fresh();
-    let mut worst: f64 = 0.0;
-    match w.truth {
-        Truth::LoadcellDrift | Truth::Hysteresis => {
-            // The reading moves, not the physics: the change in power at the same reading.
-            let full = base.operate(1.0, &fresh()).thrust_n;
-            let shift = if w.truth == Truth::LoadcellDrift {
-                0.09
-            } else {
-                0.06
-            } * w.magnitude;
-            for u in up(10, 0.3) {
-                let t = base.operate(u, &fresh()).thrust_n;
-                // P ∝ T^1.5 near the operating point.
-                let rel = ((t + shift * full) / t).powf(1.5) - 1.0;
-                worst = worst.max(rel.abs());
+/// Rows of a simulated CSV: (thrust reading g, voltage V, current A, power W).
+fn rows(csv: &str) -> Vec<[f64; 4]> {
+    csv.lines()
+        .skip(1)
+        .map(|l| {
+            let v: Vec<f64> = l
+                .split(',')
+                .map(|x| x.parse().unwrap_or(f64::NAN))
+                .collect();
+            [v[2], v[3], v[4], v[5]]
+        })
+        .collect()
+}
+
+/// Least squares on a small basis by normal equations and Gaussian elimination.
+#[allow(clippy::needless_range_loop)] // row operations read clearest with indices
+fn basis_fit(x: &[f64], y: &[f64]) -> [f64; 5] {
+    let phi = |x: f64| [1.0, x.sqrt(), x, x * x.sqrt(), x * x];
+    let mut a = [[0.0f64; 6]; 5];
+    for (xi, yi) in x.iter().zip(y) {
+        let f = phi(*xi);
+        for r in 0..5 {
+            for c in 0..5 {
+                a[r][c] += f[r] * f[c];
             }
-            worst
-        }
-        _ => {
-            for u in up(10, 0.25) {
-                let op = w.operate(u, &s);
-                w.advance(&mut s, &op, DWELL_S, capacity_ah);
-                let op = w.operate(u, &s);
-                // The base world's power at the same thrust: bisection on its throttle.
-                let (mut lo, mut hi) = (0.0, 1.0);
-                let b = fresh();
-                for _ in 0..60 {
-                    let m = 0.5 * (lo + hi);
-                    if base.operate(m, &b).thrust_n < op.thrust_n {
-                        lo = m;
-                    } else {
-                        hi = m;
-                    }
-                }
-                let bo = base.operate(0.5 * (lo + hi), &b);
-                let p = op.v_bus * op.i_bus;
-                let pb = bo.v_bus * bo.i_bus;
-                worst = worst
-                    .max(((p - pb) / pb).abs())
-                    .max(((op.i_bus - bo.i_bus) / bo.i_bus).abs());
-            }
-            worst
+            a[r][5] += f[r] * yi;
         }
     }
+    for (r, row) in a.iter_mut().enumerate() {
+        row[r] += 1e-12 * (1.0 + row[r].abs());
+    }
+    for col in 0..5 {
+        let piv = (col..5)
+            .max_by(|p, q| a[*p][col].abs().total_cmp(&a[*q][col].abs()))
+            .unwrap_or(col);
+        a.swap(col, piv);
+        let d = a[col][col];
+        if d.abs() < 1e-300 {
+            continue;
+        }
+        for r in 0..5 {
+            if r != col {
+                let f = a[r][col] / d;
+                for c in col..6 {
+                    a[r][c] -= f * a[col][c];
+                }
+            }
+        }
+    }
+    let mut out = [0.0; 5];
+    for r in 0..5 {
+        out[r] = if a[r][r].abs() > 1e-300 {
+            a[r][5] / a[r][r]
+        } else {
+            0.0
+        };
+    }
+    out
+}
+
+/// How far a smooth fit in thrust — the terms a motor–propeller power law can take
+/// (`1, √T, T, T^1.5, T²`), fitted to the noise-free training sweeps — misses the noise-free
+/// held-out sweep's power or current, and how far the voltage leaves its idle value: the share
+/// of the truth a fitted model cannot absorb, as a fraction.
+fn fitted_impact(train_csv: &str, held_csv: &str) -> f64 {
+    let tr = rows(train_csv);
+    let he = rows(held_csv);
+    let tmax = tr.iter().map(|r| r[0]).fold(0.0f64, f64::max).max(1e-9);
+    let spin = |r: &&[f64; 4]| r[0] > 0.05 * tmax;
+    let x: Vec<f64> = tr.iter().filter(spin).map(|r| r[0] / tmax).collect();
+    let mut worst: f64 = 0.0;
+    for k in [2usize, 3] {
+        let y: Vec<f64> = tr.iter().filter(spin).map(|r| r[k]).collect();
+        let c = basis_fit(&x, &y);
+        for r in he.iter().filter(spin) {
+            let xi = r[0] / tmax;
+            let f = c[0] + c[1] * xi.sqrt() + c[2] * xi + c[3] * xi * xi.sqrt() + c[4] * xi * xi;
+            worst = worst.max(((f - r[k]) / r[k]).abs());
+        }
+    }
+    let idle_v = he.first().map(|r| r[1]).unwrap_or(f64::NAN);
+    for r in he.iter().filter(spin) {
+        worst = worst.max(((r[1] - idle_v) / idle_v).abs());
+    }
+    worst
 }
 
 #[cfg(test)]
