@@ -570,7 +570,8 @@ mod tests {
     fn a_world_without_an_effect_has_no_impact() {
         for seed in 0..5 {
             let s = Scenario::with(seed, Truth::None, 0.5);
-            assert!(s.power_impact < 1e-9, "{}", s.power_impact);
+            // A smooth fit absorbs a world without an effect to well under the 2 % threshold.
+            assert!(s.power_impact < 0.005, "{}", s.power_impact);
         }
     }
 
