@@ -213,7 +213,16 @@ pub fn run(args: Args) -> Result<()> {
         }
         output::write_atomic(&dir.join("rig-gap-residuals.csv"), csv.as_bytes())?;
         let fig = reports::rig_gap::RigGapFigure {
-            verdict: d.verdict.join(" + "),
+            verdict: if d.effects.is_empty() {
+                "no effect added".to_owned()
+            } else {
+                let names: Vec<&str> = d.effects.iter().map(|e| e.effect).collect();
+                let mut v = names.join(" + ");
+                if d.unexplained {
+                    v.push_str(" (a significant residual left unexplained)");
+                }
+                v
+            },
             points: d
                 .steps
                 .iter()
