@@ -44,6 +44,7 @@ mod paper_figures;
 mod payload;
 mod render;
 mod report;
+pub mod rig_gap;
 pub mod session;
 mod thrust_curve;
 mod timeline;

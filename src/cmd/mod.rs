@@ -16,6 +16,8 @@ pub mod optimise;
 pub mod paper;
 pub mod ports;
 pub mod report;
+pub mod rig_gap;
+pub mod rig_gap_eval;
 pub mod sim_rig;
 pub mod simulate_flights;
 pub mod sweep;
@@ -59,6 +61,11 @@ pub enum Command {
     Paper(paper::Args),
     /// Draw the figures of a characterisation (Fig. 3-7, SVG and PNG) and an HTML report.
     Report(report::Args),
+    /// Diagnose the gap between the physical motor-propeller-supply model and stand logs:
+    /// where they part, which unmodelled effect causes it, how far it shrinks.
+    RigGap(rig_gap::Args),
+    /// The stand gap diagnosis' blind study on the stand truth simulator.
+    RigGapEval(rig_gap_eval::Args),
     /// Run the simulated rig (the real firmware core on simulated peripherals) behind a
     /// pseudo-terminal and print its port path.
     SimRig(sim_rig::Args),
@@ -84,5 +91,7 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::Paper(a) => paper::run(a),
         Command::Report(a) => report::run(a),
         Command::SimRig(a) => sim_rig::run(a),
+        Command::RigGap(a) => rig_gap::run(a),
+        Command::RigGapEval(a) => rig_gap_eval::run(a),
     }
 }

@@ -1,0 +1,559 @@
+//! Physical motor–propeller–ESC–supply equations for a thrust stand, their bounded extensions,
+//! and a robust fit to measured sweeps.
+//!
+//! The model takes the stand's measured thrust as its input (it needs no knowledge of how an
+//! ESC maps its command to a duty cycle) and predicts what the stand measures besides: rotor
+//! speed, propeller torque, supply voltage, supply current and electrical power.
+//!
+//! * Propeller: `T = C_T·(n/1000)²` (g, n in rpm), `Q = C_Q·(n/1000)²` (N·m) — the thrust and
+//!   power coefficients with the air density and diameter lumped in (`C_P = 2π·C_Q`).
+//! * Motor: `K_t = 30/(π·K_v)`, `I_m = Q/K_t + I_0`, `V_m = K_t·ω + I_m·R`.
+//! * ESC: `P_in = V_m·I_m / η`.
+//! * Supply: `V_bus = V_0 − R_s·I_bus`, `I_bus = P_in / V_bus` (base: `R_s = 0`).
+//!
+//! [`Effect`]s extend it, each by one or two bounded parameters: `supply_sag` (source
+//! resistance), `winding_heating` (copper resistance rising with a first-order winding
+//! temperature), `no_load_current` (rising with speed), `esc_loss` (efficiency falling at
+//! partial duty), `reynolds_effect` (torque coefficient varying with speed),
+//! `loadcell_drift` (tare offset and creep) and `stand_blockage` (a share of thrust lost to
+//! the stand's structure). [`fit::fit`] fits a chosen set of parameters to sweeps of
+//! [`Observation`]s with a Huber-robust Levenberg–Marquardt solve ([`lm`]) and returns
+//! standard errors from the Jacobian at the solution.
+//!
+//! ```
+//! use motor_model::{Params, Point, predict_sweep};
+//! let mut p = Params::default();
+//! p.set_base(2300.0, 0.08, 0.5, 0.95, 20.0, 0.002, 12.0);
+//! let pred = predict_sweep(&p, &[Point { thrust_g: 400.0, time_frac: 0.0 }]);
+//! assert!(pred[0].power_w > 10.0 && pred[0].power_w < 200.0);
+//! assert!((pred[0].rpm - 1000.0 * (400.0f64 / 20.0).sqrt()).abs() < 1e-9);
+//! ```
+
+pub mod fit;
+pub mod lm;
+
+use serde::Serialize;
+
+/// Copper's temperature coefficient of resistance, 1/K.
+pub const COPPER_ALPHA_PER_K: f64 = 0.003_93;
+
+/// One parameter of the model (an index into [`Params`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Param {
+    /// Motor speed constant, rpm/V (in the rpm the stand reports).
+    KvRpmPerV,
+    /// Winding (phase-to-phase) resistance, Ω.
+    ResistanceOhm,
+    /// No-load current, A.
+    NoLoadCurrentA,
+    /// ESC efficiency, fraction.
+    EscEfficiency,
+    /// Thrust coefficient, g per (1000 rpm)².
+    ThrustCoeffGPerKrpm2,
+    /// Torque coefficient, N·m per (1000 rpm)².
+    TorqueCoeffNmPerKrpm2,
+    /// Supply open-circuit voltage, V.
+    SupplyVoltageV,
+    /// `supply_sag`: source resistance of the supply or battery, Ω.
+    SourceResistanceOhm,
+    /// `winding_heating`: winding thermal resistance, K/W.
+    ThermalResistanceKPerW,
+    /// `winding_heating`: winding thermal time constant, steps.
+    ThermalTauSteps,
+    /// `no_load_current`: rise of the no-load current with speed, A per 1000 rpm.
+    NoLoadSlopeAPerKrpm,
+    /// `esc_loss`: efficiency lost at zero duty (linear in `1 − duty`), fraction.
+    EscPartialLoss,
+    /// `reynolds_effect`: exponent of the torque coefficient on rotor speed.
+    DragReExponent,
+    /// `loadcell_drift`: tare offset, g.
+    LoadcellOffsetG,
+    /// `loadcell_drift`: tare creep over a sweep, g.
+    LoadcellCreepG,
+    /// `stand_blockage`: share of thrust lost to the stand, fraction.
+    BlockageFraction,
+    /// `supply_sag`: a battery's open-circuit voltage drop per charge drawn, V per ampere-step
+    /// (state of charge falling during the sweep).
+    DischargeVPerAStep,
+}
+
+/// Number of parameters.
+pub const N_PARAMS: usize = 17;
+
+impl Param {
+    /// Every parameter, in index order.
+    pub const ALL: [Param; N_PARAMS] = [
+        Param::KvRpmPerV,
+        Param::ResistanceOhm,
+        Param::NoLoadCurrentA,
+        Param::EscEfficiency,
+        Param::ThrustCoeffGPerKrpm2,
+        Param::TorqueCoeffNmPerKrpm2,
+        Param::SupplyVoltageV,
+        Param::SourceResistanceOhm,
+        Param::ThermalResistanceKPerW,
+        Param::ThermalTauSteps,
+        Param::NoLoadSlopeAPerKrpm,
+        Param::EscPartialLoss,
+        Param::DragReExponent,
+        Param::LoadcellOffsetG,
+        Param::LoadcellCreepG,
+        Param::BlockageFraction,
+        Param::DischargeVPerAStep,
+    ];
+
+    /// The base model's parameters.
+    pub const BASE: [Param; 7] = [
+        Param::KvRpmPerV,
+        Param::ResistanceOhm,
+        Param::NoLoadCurrentA,
+        Param::EscEfficiency,
+        Param::ThrustCoeffGPerKrpm2,
+        Param::TorqueCoeffNmPerKrpm2,
+        Param::SupplyVoltageV,
+    ];
+
+    /// Index into [`Params::values`].
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    /// Name with unit, as in JSON and tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            Param::KvRpmPerV => "kv_rpm_per_v",
+            Param::ResistanceOhm => "resistance_ohm",
+            Param::NoLoadCurrentA => "no_load_current_a",
+            Param::EscEfficiency => "esc_efficiency",
+            Param::ThrustCoeffGPerKrpm2 => "thrust_coeff_g_per_krpm2",
+            Param::TorqueCoeffNmPerKrpm2 => "torque_coeff_nm_per_krpm2",
+            Param::SupplyVoltageV => "supply_voltage_v",
+            Param::SourceResistanceOhm => "source_resistance_ohm",
+            Param::ThermalResistanceKPerW => "thermal_resistance_k_per_w",
+            Param::ThermalTauSteps => "thermal_tau_steps",
+            Param::NoLoadSlopeAPerKrpm => "no_load_slope_a_per_krpm",
+            Param::EscPartialLoss => "esc_partial_loss",
+            Param::DragReExponent => "drag_re_exponent",
+            Param::LoadcellOffsetG => "loadcell_offset_g",
+            Param::LoadcellCreepG => "loadcell_creep_g",
+            Param::BlockageFraction => "blockage_fraction",
+            Param::DischargeVPerAStep => "discharge_v_per_a_step",
+        }
+    }
+
+    /// Whether the parameter is strictly positive and fitted in log space.
+    pub fn positive(self) -> bool {
+        Param::BASE.contains(&self)
+    }
+}
+
+/// An unmodelled effect: a bounded physical extension of the base model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Effect {
+    /// Supply or battery source resistance: the bus voltage sags with current (and a battery's
+    /// open-circuit voltage with the charge drawn).
+    SupplySag,
+    /// Winding resistance rising with a first-order winding temperature.
+    WindingHeating,
+    /// No-load (iron and bearing) current rising with speed.
+    NoLoadCurrent,
+    /// ESC efficiency falling at partial duty.
+    EscLoss,
+    /// Propeller torque coefficient varying with Reynolds number (rotor speed).
+    ReynoldsEffect,
+    /// Load-cell tare offset and creep.
+    LoadcellDrift,
+    /// A share of thrust lost to the stand's structure in the slipstream.
+    StandBlockage,
+}
+
+impl Effect {
+    /// Every effect in the library.
+    pub const ALL: [Effect; 7] = [
+        Effect::SupplySag,
+        Effect::WindingHeating,
+        Effect::NoLoadCurrent,
+        Effect::EscLoss,
+        Effect::ReynoldsEffect,
+        Effect::LoadcellDrift,
+        Effect::StandBlockage,
+    ];
+
+    /// Its name, as in JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            Effect::SupplySag => "supply_sag",
+            Effect::WindingHeating => "winding_heating",
+            Effect::NoLoadCurrent => "no_load_current",
+            Effect::EscLoss => "esc_loss",
+            Effect::ReynoldsEffect => "reynolds_effect",
+            Effect::LoadcellDrift => "loadcell_drift",
+            Effect::StandBlockage => "stand_blockage",
+        }
+    }
+
+    /// Parses a name.
+    pub fn from_name(s: &str) -> Option<Self> {
+        Effect::ALL.into_iter().find(|e| e.name() == s)
+    }
+
+    /// The parameters it adds.
+    pub fn params(self) -> &'static [Param] {
+        match self {
+            Effect::SupplySag => &[Param::SourceResistanceOhm, Param::DischargeVPerAStep],
+            Effect::WindingHeating => &[Param::ThermalResistanceKPerW, Param::ThermalTauSteps],
+            Effect::NoLoadCurrent => &[Param::NoLoadSlopeAPerKrpm],
+            Effect::EscLoss => &[Param::EscPartialLoss],
+            Effect::ReynoldsEffect => &[Param::DragReExponent],
+            Effect::LoadcellDrift => &[Param::LoadcellOffsetG, Param::LoadcellCreepG],
+            Effect::StandBlockage => &[Param::BlockageFraction],
+        }
+    }
+}
+
+/// All parameter values (base and extensions; an extension at its neutral value is off).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Params {
+    /// Values, indexed by [`Param::index`].
+    pub values: [f64; N_PARAMS],
+    /// Reference speed of the Reynolds-number extension, rpm.
+    pub reference_rpm: f64,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        let mut values = [0.0; N_PARAMS];
+        values[Param::KvRpmPerV.index()] = 1000.0;
+        values[Param::ResistanceOhm.index()] = 0.1;
+        values[Param::NoLoadCurrentA.index()] = 0.5;
+        values[Param::EscEfficiency.index()] = 0.95;
+        values[Param::ThrustCoeffGPerKrpm2.index()] = 10.0;
+        values[Param::TorqueCoeffNmPerKrpm2.index()] = 0.000_2;
+        values[Param::SupplyVoltageV.index()] = 12.0;
+        values[Param::ThermalTauSteps.index()] = 10.0;
+        Self {
+            values,
+            reference_rpm: 10_000.0,
+        }
+    }
+}
+
+impl Params {
+    /// A parameter's value.
+    pub fn get(&self, p: Param) -> f64 {
+        self.values[p.index()]
+    }
+
+    /// Sets a parameter's value.
+    pub fn set(&mut self, p: Param, v: f64) {
+        self.values[p.index()] = v;
+    }
+
+    /// Sets the base model: Kv (rpm/V), R (Ω), I₀ (A), η, C_T (g/krpm²), C_Q (N·m/krpm²), V₀ (V).
+    #[allow(clippy::too_many_arguments)]
+    pub fn set_base(&mut self, kv: f64, r: f64, i0: f64, eta: f64, ct: f64, cq: f64, v0: f64) {
+        self.set(Param::KvRpmPerV, kv);
+        self.set(Param::ResistanceOhm, r);
+        self.set(Param::NoLoadCurrentA, i0);
+        self.set(Param::EscEfficiency, eta);
+        self.set(Param::ThrustCoeffGPerKrpm2, ct);
+        self.set(Param::TorqueCoeffNmPerKrpm2, cq);
+        self.set(Param::SupplyVoltageV, v0);
+    }
+}
+
+/// One measured operating point: the stand's thrust reading and when in its sweep it was taken.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Point {
+    /// Thrust as the load cell read it, g.
+    pub thrust_g: f64,
+    /// Position in the sweep, 0 (first step) … 1 (last step).
+    pub time_frac: f64,
+}
+
+/// What the model predicts at one point.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Prediction {
+    /// The propeller's true thrust, g.
+    pub thrust_true_g: f64,
+    /// Rotor speed, rpm.
+    pub rpm: f64,
+    /// Propeller torque, N·m.
+    pub torque_nm: f64,
+    /// Motor (phase-equivalent DC) current, A.
+    pub motor_current_a: f64,
+    /// Motor (phase-equivalent DC) voltage, V.
+    pub motor_voltage_v: f64,
+    /// ESC duty, fraction (may exceed 1 when the supply cannot reach the point).
+    pub duty: f64,
+    /// Supply (bus) voltage, V.
+    pub voltage_v: f64,
+    /// Supply (bus) current, A.
+    pub current_a: f64,
+    /// Electrical input power, W.
+    pub power_w: f64,
+    /// Copper loss, W.
+    pub copper_loss_w: f64,
+    /// Winding temperature rise, K.
+    pub winding_rise_k: f64,
+}
+
+/// Predicts a sweep's points in order (the winding temperature carries from one to the next,
+/// starting cold).
+pub fn predict_sweep(p: &Params, points: &[Point]) -> Vec<Prediction> {
+    let kv = p.get(Param::KvRpmPerV);
+    let r0 = p.get(Param::ResistanceOhm);
+    let i0 = p.get(Param::NoLoadCurrentA);
+    let eta = p.get(Param::EscEfficiency);
+    let ct = p.get(Param::ThrustCoeffGPerKrpm2);
+    let cq = p.get(Param::TorqueCoeffNmPerKrpm2);
+    let v0 = p.get(Param::SupplyVoltageV);
+    let rs = p.get(Param::SourceResistanceOhm);
+    let rth = p.get(Param::ThermalResistanceKPerW);
+    let tau = p.get(Param::ThermalTauSteps).max(1e-3);
+    let slope = p.get(Param::NoLoadSlopeAPerKrpm);
+    let esc_e = p.get(Param::EscPartialLoss);
+    let re_a = p.get(Param::DragReExponent);
+    let off = p.get(Param::LoadcellOffsetG);
+    let creep = p.get(Param::LoadcellCreepG);
+    let block = p.get(Param::BlockageFraction);
+    let discharge = p.get(Param::DischargeVPerAStep);
+    let mut charge_a_steps = 0.0;
+    let kt = 30.0 / (std::f64::consts::PI * kv);
+    let relax = 1.0 - (-1.0 / tau).exp();
+    let mut rise = 0.0;
+    points
+        .iter()
+        .map(|pt| {
+            // Load cell: reading = (1 − blockage)·T + offset + creep·t.
+            let t_true = ((pt.thrust_g - off - creep * pt.time_frac) / (1.0 - block)).max(1e-9);
+            let rpm = 1000.0 * (t_true / ct).sqrt();
+            let omega = rpm * std::f64::consts::PI / 30.0;
+            let cq_eff = cq * (rpm.max(1.0) / p.reference_rpm).powf(re_a);
+            let q = cq_eff * (rpm / 1000.0).powi(2);
+            let im = q / kt + i0 + slope * rpm / 1000.0;
+            let r = r0 * (1.0 + COPPER_ALPHA_PER_K * rise);
+            let vm = kt * omega + im * r;
+            let p_motor = vm * im;
+            let voc = (v0 - discharge * charge_a_steps).max(0.05 * v0);
+            let mut vbus = voc;
+            let mut p_in = p_motor / eta;
+            for _ in 0..6 {
+                let duty = (vm / vbus).min(1.0);
+                let e = (eta * (1.0 - esc_e * (1.0 - duty))).max(0.05);
+                p_in = p_motor / e;
+                let disc = voc * voc - 4.0 * rs * p_in;
+                vbus = 0.5 * (voc + disc.max(0.0).sqrt());
+            }
+            charge_a_steps += p_in / vbus;
+            let pcu = im * im * r;
+            let pred = Prediction {
+                thrust_true_g: t_true,
+                rpm,
+                torque_nm: q,
+                motor_current_a: im,
+                motor_voltage_v: vm,
+                duty: vm / vbus,
+                voltage_v: vbus,
+                current_a: p_in / vbus,
+                power_w: p_in,
+                copper_loss_w: pcu,
+                winding_rise_k: rise,
+            };
+            rise += (rth * pcu - rise) * relax;
+            pred
+        })
+        .collect()
+}
+
+/// A measured quantity the model is compared with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Quantity {
+    /// Electrical power, W.
+    PowerW,
+    /// Supply current, A (compared only when power is not).
+    CurrentA,
+    /// Supply voltage, V.
+    VoltageV,
+    /// Rotor speed, rpm.
+    SpeedRpm,
+    /// Propeller torque, N·m.
+    TorqueNm,
+}
+
+impl Quantity {
+    /// Every quantity.
+    pub const ALL: [Quantity; 5] = [
+        Quantity::PowerW,
+        Quantity::CurrentA,
+        Quantity::VoltageV,
+        Quantity::SpeedRpm,
+        Quantity::TorqueNm,
+    ];
+
+    /// Name with unit.
+    pub fn name(self) -> &'static str {
+        match self {
+            Quantity::PowerW => "power_w",
+            Quantity::CurrentA => "current_a",
+            Quantity::VoltageV => "voltage_v",
+            Quantity::SpeedRpm => "speed_rpm",
+            Quantity::TorqueNm => "torque_nm",
+        }
+    }
+
+    /// The predicted value.
+    pub fn predicted(self, p: &Prediction) -> f64 {
+        match self {
+            Quantity::PowerW => p.power_w,
+            Quantity::CurrentA => p.current_a,
+            Quantity::VoltageV => p.voltage_v,
+            Quantity::SpeedRpm => p.rpm,
+            Quantity::TorqueNm => p.torque_nm,
+        }
+    }
+}
+
+/// One measured step of a sweep.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Observation {
+    /// Thrust reading, g.
+    pub thrust_g: f64,
+    /// Position in the sweep, 0 … 1.
+    pub time_frac: f64,
+    /// Electrical power, W.
+    pub power_w: Option<f64>,
+    /// Supply current, A.
+    pub current_a: Option<f64>,
+    /// Supply voltage, V.
+    pub voltage_v: Option<f64>,
+    /// Rotor speed, rpm.
+    pub speed_rpm: Option<f64>,
+    /// Torque, N·m.
+    pub torque_nm: Option<f64>,
+}
+
+impl Observation {
+    /// The measured value of a quantity, if logged.
+    pub fn measured(&self, q: Quantity) -> Option<f64> {
+        match q {
+            Quantity::PowerW => self.power_w,
+            Quantity::CurrentA => self.current_a,
+            Quantity::VoltageV => self.voltage_v,
+            Quantity::SpeedRpm => self.speed_rpm,
+            Quantity::TorqueNm => self.torque_nm,
+        }
+    }
+
+    /// The point the model is driven with.
+    pub fn point(&self) -> Point {
+        Point {
+            thrust_g: self.thrust_g,
+            time_frac: self.time_frac,
+        }
+    }
+}
+
+/// A sweep: observations in the order they were taken.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Sweep {
+    /// Name, for messages.
+    pub name: String,
+    /// The steps.
+    pub steps: Vec<Observation>,
+    /// The supply's open-circuit voltage for this sweep when it was measured (e.g. a battery's
+    /// voltage at idle before the sweep); it replaces [`Param::SupplyVoltageV`] for this sweep.
+    pub open_circuit_v: Option<f64>,
+}
+
+impl Sweep {
+    /// Predictions for every step.
+    pub fn predict(&self, p: &Params) -> Vec<Prediction> {
+        let pts: Vec<Point> = self.steps.iter().map(|o| o.point()).collect();
+        match self.open_circuit_v {
+            Some(v) => {
+                let mut q = *p;
+                q.set(Param::SupplyVoltageV, v);
+                predict_sweep(&q, &pts)
+            }
+            None => predict_sweep(p, &pts),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn base() -> Params {
+        let mut p = Params::default();
+        p.set_base(920.0, 0.12, 0.6, 0.95, 12.0, 0.000_25, 16.8);
+        p
+    }
+
+    #[test]
+    fn power_balances() {
+        let p = base();
+        let pred = predict_sweep(
+            &p,
+            &[Point {
+                thrust_g: 800.0,
+                time_frac: 0.0,
+            }],
+        )[0];
+        let omega = pred.rpm * std::f64::consts::PI / 30.0;
+        let mech = omega * pred.torque_nm;
+        let loss_cu = pred.motor_current_a.powi(2) * 0.12;
+        let back_emf = omega * 30.0 / (std::f64::consts::PI * 920.0);
+        let i0_loss = back_emf * 0.6;
+        let motor = mech + loss_cu + i0_loss;
+        assert!((pred.power_w * 0.95 - motor).abs() < 1e-9 * motor);
+        assert!((pred.voltage_v - 16.8).abs() < 1e-12);
+        assert!((pred.current_a * pred.voltage_v - pred.power_w).abs() < 1e-9);
+    }
+
+    #[test]
+    fn sag_lowers_voltage_and_raises_current() {
+        let mut p = base();
+        let pt = [Point {
+            thrust_g: 800.0,
+            time_frac: 0.0,
+        }];
+        let a = predict_sweep(&p, &pt)[0];
+        p.set(Param::SourceResistanceOhm, 0.1);
+        let b = predict_sweep(&p, &pt)[0];
+        assert!((b.voltage_v - (16.8 - 0.1 * b.current_a)).abs() < 1e-9);
+        assert!(b.current_a > a.current_a);
+        assert!((b.power_w - a.power_w).abs() < 1e-9);
+    }
+
+    #[test]
+    fn heating_raises_power_over_time() {
+        let mut p = base();
+        p.set(Param::ThermalResistanceKPerW, 10.0);
+        p.set(Param::ThermalTauSteps, 3.0);
+        let pts: Vec<Point> = (0..10)
+            .map(|i| Point {
+                thrust_g: 800.0,
+                time_frac: i as f64 / 9.0,
+            })
+            .collect();
+        let pr = predict_sweep(&p, &pts);
+        assert!(pr[9].power_w > pr[0].power_w);
+        assert!(pr[9].winding_rise_k > 5.0);
+    }
+
+    #[test]
+    fn effect_names_round_trip() {
+        for e in Effect::ALL {
+            assert_eq!(Effect::from_name(e.name()), Some(e));
+            assert!(!e.params().is_empty());
+        }
+        for (i, p) in Param::ALL.iter().enumerate() {
+            assert_eq!(p.index(), i);
+        }
+    }
+}
