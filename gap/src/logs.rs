@@ -7,7 +7,7 @@ use flightlog::{End, Flight, PhaseSource};
 use serde::Serialize;
 
 use crate::GapError;
-use crate::diagnose::{DiagnoseOptions, Diagnosis, diagnose};
+use crate::diagnose::{BatterySet, DiagnoseOptions, Diagnosis, diagnose_with, learn_batteries};
 use crate::flight::{FlightInfo, FlightRecord, Phase};
 use crate::model::{EffectParams, Model};
 
@@ -108,8 +108,12 @@ impl PowerCurve for ConstantPower {
 
 /// Estimates the rotors' hover power from training flights: the mean measured hover power
 /// (battery power less idle power) when current is logged; otherwise the power that makes the
-/// baseline model follow the voltage trajectories best.
-pub fn estimate_hover_power(train: &[&FlightRecord], opts: &DiagnoseOptions) -> ConstantPower {
+/// baseline model follow the voltage trajectories best, with the batteries `batteries`.
+pub fn estimate_hover_power(
+    train: &[&FlightRecord],
+    batteries: &BatterySet,
+    opts: &DiagnoseOptions,
+) -> ConstantPower {
     let masses: Vec<f64> = train.iter().map(|f| f.info.total_mass_kg()).collect();
     let reference_mass_kg = if masses.iter().all(|m| m.is_finite() && *m > 0.0) {
         masses.iter().sum::<f64>() / masses.len() as f64
@@ -155,7 +159,12 @@ pub fn estimate_hover_power(train: &[&FlightRecord], opts: &DiagnoseOptions) -> 
             .iter()
             .map(|f| {
                 let stride = (f.time_s.len() / opts.points_per_flight.max(1)).max(1);
-                let pred = model.predict(f, &EffectParams::baseline(), stride);
+                let pred = model.predict(
+                    f,
+                    batteries.for_flight(f),
+                    &EffectParams::baseline(),
+                    stride,
+                );
                 let r: Vec<f64> = pred
                     .index
                     .iter()
@@ -203,7 +212,7 @@ pub fn estimate_hover_power(train: &[&FlightRecord], opts: &DiagnoseOptions) -> 
             .unwrap_or(1.0);
         (best / 1.3, best * 1.3)
     };
-    let (w, _) = crate::diagnose::golden_min(&chi2, a, b, 40);
+    let (w, _) = crate::stats::golden_min(&chi2, a, b, 40);
     ConstantPower {
         hover_power_w: w,
         reference_mass_kg,
@@ -235,7 +244,50 @@ pub fn default_split(names: &[String]) -> Vec<bool> {
     held
 }
 
+/// How the flights were split into training and held-out ones.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SplitRule {
+    /// Every third flight by name held out (no held-out flights given).
+    EveryThirdByName,
+    /// The held-out flights were given.
+    Given,
+}
+
+impl SplitRule {
+    /// In words.
+    pub fn describe(self) -> &'static str {
+        match self {
+            SplitRule::EveryThirdByName => {
+                "every third flight by name held out (no --holdout given)"
+            }
+            SplitRule::Given => "--holdout",
+        }
+    }
+}
+
+/// Splits flights into training and held-out ones: the given held-out flights, or, when none
+/// are given, every third of `flights` by name ([`default_split`]).
+pub fn split_flights(
+    flights: Vec<FlightRecord>,
+    given_heldout: Vec<FlightRecord>,
+) -> (Vec<FlightRecord>, Vec<FlightRecord>, SplitRule) {
+    if !given_heldout.is_empty() {
+        return (flights, given_heldout, SplitRule::Given);
+    }
+    let names: Vec<String> = flights.iter().map(|f| f.name.clone()).collect();
+    let mask = default_split(&names);
+    let (mut train, mut held) = (Vec::new(), Vec::new());
+    for (f, h) in flights.into_iter().zip(mask) {
+        if h { held.push(f) } else { train.push(f) }
+    }
+    (train, held, SplitRule::EveryThirdByName)
+}
+
 /// Compares names with embedded numbers naturally ("2" before "10").
+///
+/// A copy of `flightlog`'s (crate-private there); to be replaced by it once `flightlog` exports
+/// it.
 pub fn natural_cmp(a: &str, b: &str) -> std::cmp::Ordering {
     let key = |s: &str| -> Vec<(String, u64)> {
         let mut out = Vec::new();
@@ -275,19 +327,17 @@ pub struct HeldoutSeries {
 
 fn series<C: PowerCurve>(
     model: Model<'_, C>,
+    batteries: &BatterySet,
     d: &Diagnosis,
     flights: &[&FlightRecord],
 ) -> Vec<HeldoutSeries> {
-    let mut after = EffectParams::baseline();
-    for e in &d.effects {
-        after.set(e.effect, e.parameters[0].1);
-    }
+    let after = d.selected_params();
     flights
         .iter()
         .map(|f| {
             let stride = (f.time_s.len() / 400).max(1);
             let on_grid = |p: &EffectParams| {
-                let pred = model.predict(f, p, stride);
+                let pred = model.predict(f, batteries.for_flight(f), p, stride);
                 let mut v = vec![f64::NAN; f.time_s.len().div_ceil(stride)];
                 for (k, i) in pred.index.iter().enumerate() {
                     if let Some(slot) = v.get_mut(i / stride) {
@@ -341,22 +391,39 @@ pub fn run<C: PowerCurve>(
                 require_masses(f)?;
             }
             let model = Model { curve, rotor_count };
-            let d = diagnose(model, train, heldout, opts);
+            let batteries = learn_batteries(model, train, opts);
+            let d = diagnose_with(model, &batteries, train, heldout, opts)?;
             Ok(GapReport {
                 baseline_source: "rig curve through the paper's model (eqs. 1-9)".into(),
                 estimated_hover_power_w: None,
-                heldout_series: series(model, &d, heldout),
+                heldout_series: series(model, &batteries, &d, heldout),
                 diagnosis: d,
             })
         }
         Baseline::FromTraining => {
-            let curve = estimate_hover_power(train, opts);
+            // The hover power and the battery are learned together: the power with the prior
+            // battery, the battery with that power, the power again with the learned battery,
+            // and the battery once more for the diagnosis.
+            let prior = BatterySet::fixed(
+                opts.measured_ocv
+                    .unwrap_or_else(crate::battery::LearnedBattery::lipo),
+            );
+            let mut curve = estimate_hover_power(train, &prior, opts);
+            for _ in 0..2 {
+                let model = Model {
+                    curve: &curve,
+                    rotor_count: 1,
+                };
+                let learned = learn_batteries(model, train, opts);
+                curve = estimate_hover_power(train, &learned, opts);
+            }
             let model = Model {
                 curve: &curve,
                 rotor_count: 1,
             };
-            let d = diagnose(model, train, heldout, opts);
-            let heldout_series = series(model, &d, heldout);
+            let batteries = learn_batteries(model, train, opts);
+            let d = diagnose_with(model, &batteries, train, heldout, opts)?;
+            let heldout_series = series(model, &batteries, &d, heldout);
             Ok(GapReport {
                 baseline_source: if curve.reference_mass_kg.is_finite() {
                     format!(
