@@ -700,7 +700,7 @@ pub fn fit_battery(
     };
     let mut best: Option<(BatteryFit, f64)> = None;
     for (chem, prior) in priors {
-        // Two rounds: the state of charge depends on the curve (start and capacity).
+        // Rounds: the state of charge depends on the curve (start and capacity).
         let mut start = prior;
         let mut result = None;
         for _ in 0..2 {
@@ -708,8 +708,12 @@ pub fn fit_battery(
             let lo = rows.iter().map(|r| r.soc).fold(f64::INFINITY, f64::min);
             let hi = rows.iter().map(|r| r.soc).fold(f64::NEG_INFINITY, f64::max);
             let span = (hi - lo).max(0.0);
-            let learn_shape =
-                chem != Chemistry::Measured && rows.len() >= MIN_SAMPLES && span >= MIN_SOC_SPAN;
+            // Without current the state of charge comes from the power model, and the curve's
+            // shape would trade off against that power: only an offset is learned then.
+            let learn_shape = chem != Chemistry::Measured
+                && current == CurrentSource::Logged
+                && rows.len() >= MIN_SAMPLES
+                && span >= MIN_SOC_SPAN;
             let mut round: Option<(LearnedBattery, f64, f64)> = None;
             for tau in std::iter::once(None).chain((0..TAUS_S.len()).map(Some)) {
                 if let Some(c) = fit_once(&rows, &prior, tau, learn_shape, prior_sigma_v) {
@@ -731,6 +735,11 @@ pub fn fit_battery(
                     "open-circuit curve learned over state of charge {:.2}–{:.2}, the {} prior's shape beyond",
                     lo.max(0.0),
                     hi.min(1.0),
+                    chem.name()
+                )
+            } else if current == CurrentSource::PowerModel {
+                format!(
+                    "no current logged: the {} prior's shape shifted to the flights (the shape would trade off against the power model), resistances learned",
                     chem.name()
                 )
             } else {

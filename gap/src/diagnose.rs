@@ -330,7 +330,8 @@ pub struct LevelErrors {
 }
 
 impl LevelErrors {
-    fn of(res: &[FlightResiduals]) -> Self {
+    /// The errors of a set of per-flight residuals.
+    pub fn of(res: &[FlightResiduals]) -> Self {
         let end: Vec<f64> = res
             .iter()
             .filter_map(|r| r.endurance_error.map(|e| e.abs() * 100.0))
@@ -629,12 +630,15 @@ impl Diagnosis {
 }
 
 /// The learned batteries of a flight set, by battery type, with the pooled one for types no
-/// training flight had.
+/// training flight had, and the baseline's version of each (its series resistance from
+/// [`crate::model::baseline_cell_resistance_ohm`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct BatterySet {
     /// One fit per battery type among the training flights.
     pub fits: Vec<BatteryFit>,
-    /// Learned on every training flight together.
+    /// The baseline battery of each fit, in the same order.
+    pub baselines: Vec<LearnedBattery>,
+    /// Learned on every training flight together (baseline version).
     pub pooled: LearnedBattery,
 }
 
@@ -643,18 +647,28 @@ impl BatterySet {
     pub fn fixed(b: LearnedBattery) -> Self {
         Self {
             fits: Vec::new(),
+            baselines: Vec::new(),
             pooled: b,
         }
     }
 
-    /// The battery of a flight.
+    /// The baseline battery of a flight.
     pub fn for_flight(&self, f: &FlightRecord) -> &LearnedBattery {
         let t = battery_type(f);
         self.fits
             .iter()
-            .find(|b| b.battery_type == t)
-            .map_or(&self.pooled, |b| &b.battery)
+            .position(|b| b.battery_type == t)
+            .map_or(&self.pooled, |k| &self.baselines[k])
     }
+}
+
+fn baseline_of(fit: &BatteryFit) -> LearnedBattery {
+    let mut b = fit.battery;
+    b.series_resistance_cell_ohm = crate::model::baseline_cell_resistance_ohm(
+        &fit.battery,
+        fit.current == CurrentSource::Logged,
+    );
+    b
 }
 
 /// Step 0: learns each battery type's open-circuit curve, series resistance and RC pair from
@@ -702,11 +716,12 @@ pub fn learn_batteries<C: PowerCurve>(
             fit_battery(t, &mine, measured, opts.chemistry)
         })
         .collect();
-    let pooled = if fits.len() == 1 {
-        fits[0].battery
+    let pooled_fit = if fits.len() == 1 {
+        fits[0].clone()
     } else {
-        fit_battery("all training flights", &data, measured, opts.chemistry).battery
+        fit_battery("all training flights", &data, measured, opts.chemistry)
     };
+    let pooled = pooled_fit.battery;
     // A type whose own data could not teach the shape borrows the pooled shape.
     for f in &mut fits {
         if f.samples < crate::battery::MIN_SAMPLES && f.prior != crate::battery::Chemistry::Measured
@@ -716,7 +731,11 @@ pub fn learn_batteries<C: PowerCurve>(
                 .push_str("; the curve's shape from all training flights pooled");
         }
     }
-    BatterySet { fits, pooled }
+    BatterySet {
+        baselines: fits.iter().map(baseline_of).collect(),
+        fits,
+        pooled: baseline_of(&pooled_fit),
+    }
 }
 
 /// Evaluates effect parameters on flights: the model with the learned batteries.
@@ -1137,9 +1156,19 @@ pub fn judge_on_heldout<C: PowerCurve>(
     heldout: &[&FlightRecord],
     selection: &Selection,
 ) -> (Vec<Effect>, Vec<Rejected>) {
+    // Endurance first, else energy per phase; only when the held-out flights measure neither,
+    // the voltage trajectory.
     let physical = |set: &[Effect]| {
         let e = LevelErrors::of(&ev.residuals(heldout, &with_only(&selection.params, set)));
-        e.endurance_pct.or(e.phase_energy_pct)
+        e.endurance_pct.or(e.phase_energy_pct).or(e.voltage_rmse_v)
+    };
+    let base_errors = LevelErrors::of(&ev.residuals(heldout, &EffectParams::baseline()));
+    let unit = if base_errors.endurance_pct.is_some() {
+        "endurance (%)"
+    } else if base_errors.phase_energy_pct.is_some() {
+        "energy-per-phase (%)"
+    } else {
+        "voltage (V)"
     };
     let mut kept = selection.effects.clone();
     let mut rejected = Vec::new();
@@ -1152,11 +1181,11 @@ pub fn judge_on_heldout<C: PowerCurve>(
             let alone = physical(&[e]).unwrap_or(base);
             let reason = if wo < with {
                 Some(format!(
-                    "held-out error {wo:.2} % without it, {with:.2} % with it"
+                    "held-out {unit} error {wo:.3} without it, {with:.3} with it"
                 ))
             } else if alone > base {
                 Some(format!(
-                    "negative share: alone it takes the held-out error from {base:.2} % to {alone:.2} %"
+                    "negative share: alone it takes the held-out {unit} error from {base:.3} to {alone:.3}"
                 ))
             } else {
                 None

@@ -401,22 +401,15 @@ pub fn run<C: PowerCurve>(
             })
         }
         Baseline::FromTraining => {
-            // The hover power and the battery are learned together: the power with the prior
-            // battery, the battery with that power, the power again with the learned battery,
-            // and the battery once more for the diagnosis.
+            // The hover power first, with the prior battery (from logged current when there
+            // is one; otherwise from the voltage's slope), then the battery with that power.
+            // Without current the two are not learned jointly: a smaller power and a larger
+            // resistance would explain the same voltage, and the joint fit drifts there.
             let prior = BatterySet::fixed(
                 opts.measured_ocv
                     .unwrap_or_else(crate::battery::LearnedBattery::lipo),
             );
-            let mut curve = estimate_hover_power(train, &prior, opts);
-            for _ in 0..2 {
-                let model = Model {
-                    curve: &curve,
-                    rotor_count: 1,
-                };
-                let learned = learn_batteries(model, train, opts);
-                curve = estimate_hover_power(train, &learned, opts);
-            }
+            let curve = estimate_hover_power(train, &prior, opts);
             let model = Model {
                 curve: &curve,
                 rotor_count: 1,
@@ -439,4 +432,97 @@ pub fn run<C: PowerCurve>(
             })
         }
     }
+}
+
+/// Fewest flights the attribution needs: two to fit on and one held out to check on.
+pub const MIN_FLIGHTS_FOR_ATTRIBUTION: usize = 3;
+
+/// Where the baseline and too few flights for an attribution part: the localisation alone.
+#[derive(Debug, Clone, Serialize)]
+pub struct LocalisationReport {
+    /// `rig curve` or `hover power estimated from these flights`.
+    pub baseline_source: String,
+    /// The estimated hover power (all rotors), W, when estimated.
+    pub estimated_hover_power_w: Option<f64>,
+    /// The batteries learned from these flights.
+    pub batteries: Vec<crate::battery::BatteryFit>,
+    /// The baseline's errors on these flights.
+    pub errors: crate::diagnose::LevelErrors,
+    /// Where the gap sits.
+    pub r#where: crate::diagnose::Where,
+    /// Flights read.
+    pub flights: usize,
+    /// More flights the attribution needs.
+    pub more_flights_needed: usize,
+}
+
+/// Localises the gap on fewer flights than an attribution needs (one log is a use case): the
+/// baseline (rig, or a hover power estimated from these flights) with the battery learned from
+/// them, and where the flights part from it.
+pub fn localise_only<C: PowerCurve>(
+    baseline: Baseline<'_, C>,
+    flights: &[&FlightRecord],
+    opts: &DiagnoseOptions,
+) -> Result<LocalisationReport, GapError> {
+    if flights.is_empty() {
+        return Err(GapError::NoFlights("readable"));
+    }
+    let more_flights_needed = MIN_FLIGHTS_FOR_ATTRIBUTION.saturating_sub(flights.len());
+    fn finish<C: PowerCurve>(
+        model: Model<'_, C>,
+        flights: &[&FlightRecord],
+        opts: &DiagnoseOptions,
+        (source, hover, more_flights_needed): (String, Option<f64>, usize),
+    ) -> LocalisationReport {
+        let batteries = learn_batteries(model, flights, opts);
+        let ev = crate::diagnose::Evaluator::new(model, &batteries, opts);
+        let res = ev.residuals(flights, &EffectParams::baseline());
+        LocalisationReport {
+            baseline_source: source,
+            estimated_hover_power_w: hover,
+            batteries: batteries.fits.clone(),
+            errors: crate::diagnose::LevelErrors::of(&res),
+            r#where: crate::diagnose::localise(flights, &res),
+            flights: flights.len(),
+            more_flights_needed,
+        }
+    }
+    Ok(match baseline {
+        Baseline::Rig(curve, rotor_count) => {
+            for f in flights {
+                require_masses(f)?;
+            }
+            finish(
+                Model { curve, rotor_count },
+                flights,
+                opts,
+                (
+                    "rig curve through the paper's model (eqs. 1-9)".into(),
+                    None,
+                    more_flights_needed,
+                ),
+            )
+        }
+        Baseline::FromTraining => {
+            let prior = BatterySet::fixed(
+                opts.measured_ocv
+                    .unwrap_or_else(crate::battery::LearnedBattery::lipo),
+            );
+            let curve = estimate_hover_power(flights, &prior, opts);
+            let model = Model {
+                curve: &curve,
+                rotor_count: 1,
+            };
+            finish(
+                model,
+                flights,
+                opts,
+                (
+                    "hover power estimated from these flights".into(),
+                    Some(curve.hover_power_w),
+                    more_flights_needed,
+                ),
+            )
+        }
+    })
 }

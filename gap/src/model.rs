@@ -275,8 +275,8 @@ impl<C: PowerCurve> Model<'_, C> {
     /// Runs the battery through the flight's phases and predicts voltage, current, state of
     /// charge and the time of the cut-off. `stride` thins the samples evaluated (1 = all).
     ///
-    /// The battery is the learned one's open-circuit curve and RC pair with the series
-    /// resistance of [`baseline_cell_resistance_ohm`].
+    /// `battery` is the baseline's battery: the learned one with the series resistance of
+    /// [`baseline_cell_resistance_ohm`] (see [`crate::diagnose::BatterySet`]).
     pub fn predict(
         &self,
         f: &FlightRecord,
@@ -292,7 +292,7 @@ impl<C: PowerCurve> Model<'_, C> {
             f.info.battery_energy_wh / (cells * battery.mean_ocv_cell_v()) * c_temp * (1.0 - fade);
         let r1 = cells * battery.rc_resistance_cell_ohm * r_temp;
         let tau = battery.rc_time_constant_s;
-        let r = cells * baseline_cell_resistance_ohm(battery) * r_temp
+        let r = cells * battery.series_resistance_cell_ohm.max(0.0) * r_temp
             + p.get(Effect::InternalResistance);
         let r = r.max(0.0);
         let peukert = p.get(Effect::Peukert);
@@ -402,15 +402,21 @@ impl<C: PowerCurve> Model<'_, C> {
     }
 }
 
-/// The series resistance per cell the baseline uses: the learned one up to the nominal
-/// ([`NOMINAL_CELL_RESISTANCE_OHM`]). A healthy pack has at most the nominal resistance, so a
-/// learned resistance below it is simply the pack's; resistance above it stays a diagnosable
-/// effect (`internal_resistance`, its parameter the extra over the nominal) instead of being
-/// absorbed into the battery.
-pub fn baseline_cell_resistance_ohm(battery: &LearnedBattery) -> f64 {
-    battery
-        .series_resistance_cell_ohm
-        .clamp(0.0, NOMINAL_CELL_RESISTANCE_OHM)
+/// The series resistance per cell the baseline uses. With logged current: the learned one up
+/// to the nominal ([`NOMINAL_CELL_RESISTANCE_OHM`]) — a healthy pack has at most the nominal
+/// resistance, so a learned resistance below it is simply the pack's, and resistance above it
+/// stays a diagnosable effect (`internal_resistance`, its parameter the extra over the nominal)
+/// instead of being absorbed into the battery. Without current (the current is the power
+/// model's), the resistance and the curve's level cannot be told apart, so the learned
+/// resistance is taken whole: `internal_resistance` then needs logged current.
+pub fn baseline_cell_resistance_ohm(battery: &LearnedBattery, current_logged: bool) -> f64 {
+    if current_logged {
+        battery
+            .series_resistance_cell_ohm
+            .clamp(0.0, NOMINAL_CELL_RESISTANCE_OHM)
+    } else {
+        battery.series_resistance_cell_ohm.max(0.0)
+    }
 }
 
 impl FlightRecord {

@@ -10,7 +10,8 @@ use flightlog::PhaseSource;
 use gap::diagnose::{DiagnoseOptions, LevelErrors};
 use gap::flight::FlightRecord;
 use gap::logs::{
-    Baseline, ConstantPower, GapReport, record_from_log, run as run_gap, split_flights,
+    Baseline, ConstantPower, GapReport, MIN_FLIGHTS_FOR_ATTRIBUTION, localise_only,
+    record_from_log, run as run_gap, split_flights,
 };
 
 use crate::output::{self, Table};
@@ -145,6 +146,53 @@ fn levels(e: &LevelErrors) -> String {
     parts.join(", ")
 }
 
+fn print_where(w: &gap::diagnose::Where) {
+    println!("where:");
+    if !w.by_phase.is_empty() {
+        let parts: Vec<String> = w
+            .by_phase
+            .iter()
+            .map(|p| format!("{} {:.0} %", p.phase.name(), p.share * 100.0))
+            .collect();
+        println!("  energy gap by phase: {}", parts.join(", "));
+    }
+    let parts: Vec<String> = w
+        .voltage_by_phase_v
+        .iter()
+        .map(|p| format!("{} {:+.3} V", p.phase.name(), p.residual_v))
+        .collect();
+    println!(
+        "  voltage residual by phase (measured − predicted): {}",
+        parts.join(", ")
+    );
+    let parts: Vec<String> = w
+        .by_state_of_charge
+        .iter()
+        .map(|t| {
+            format!(
+                "{} {:+.3} V ({:.0} %)",
+                t.part,
+                t.residual_v,
+                t.share * 100.0
+            )
+        })
+        .collect();
+    println!("  by state of charge: {}", parts.join(", "));
+    let mut cov: Vec<&gap::diagnose::CovariateCorrelation> = w.by_covariate.iter().collect();
+    cov.sort_by(|a, b| b.r2.total_cmp(&a.r2));
+    let parts: Vec<String> = cov
+        .iter()
+        .take(3)
+        .map(|c| format!("{} (r = {:+.2})", c.name, c.r))
+        .collect();
+    if !parts.is_empty() {
+        println!(
+            "  strongest covariates of the per-flight error: {}",
+            parts.join(", ")
+        );
+    }
+}
+
 /// Runs the subcommand.
 pub fn run(args: Args) -> Result<()> {
     let mut skipped = Vec::new();
@@ -157,16 +205,6 @@ pub fn run(args: Args) -> Result<()> {
             eprintln!("skipped {path}: {why}");
         }
     }
-    let (train, held, rule) = split_flights(flights, given);
-    let rule = rule.describe();
-    if train.len() < 2 {
-        bail!(
-            "{} training flights: the diagnosis needs at least 2 (and held-out flights to check on)",
-            train.len()
-        );
-    }
-    let tr: Vec<&FlightRecord> = train.iter().collect();
-    let he: Vec<&FlightRecord> = held.iter().collect();
     let mut opts = DiagnoseOptions {
         max_effects: args.max_effects,
         ..DiagnoseOptions::default()
@@ -179,19 +217,59 @@ pub fn run(args: Args) -> Result<()> {
                 .with_context(|| format!("{}", p.display()))?,
         );
     }
-    let report: GapReport = match &args.params {
-        Some(p) => {
-            let file = ParamsFile::load(p)?;
-            let params = file
+    let params = match &args.params {
+        Some(p) => Some(
+            ParamsFile::load(p)?
                 .to_params()
-                .with_context(|| format!("{} cannot drive the estimator", p.display()))?;
-            run_gap(
-                Baseline::Rig(&params.curve, params.rotor_count),
-                &tr,
-                &he,
-                &opts,
-            )?
+                .with_context(|| format!("{} cannot drive the estimator", p.display()))?,
+        ),
+        None => None,
+    };
+    let total = flights.len() + given.len();
+    if total == 0 {
+        bail!("no readable flights (every file was skipped; reasons above)");
+    }
+    if total < MIN_FLIGHTS_FOR_ATTRIBUTION {
+        // Too few flights to attribute: say where the gap sits, and what more is needed.
+        let all: Vec<FlightRecord> = flights.into_iter().chain(given).collect();
+        let refs: Vec<&FlightRecord> = all.iter().collect();
+        let rep = match &params {
+            Some(p) => localise_only(Baseline::Rig(&p.curve, p.rotor_count), &refs, &opts)?,
+            None => localise_only::<ConstantPower>(Baseline::FromTraining, &refs, &opts)?,
+        };
+        if args.json {
+            return output::print_json(&rep);
         }
+        println!("baseline: {}", rep.baseline_source);
+        if let Some(w) = rep.estimated_hover_power_w {
+            println!("  estimated hover power: {w:.2} W");
+        }
+        println!("gap against the baseline: {}", levels(&rep.errors));
+        print_where(&rep.r#where);
+        println!();
+        println!(
+            "attribution needs at least {MIN_FLIGHTS_FOR_ATTRIBUTION} flights (2 to fit on, 1 held out to check on): {} read, {} more needed",
+            rep.flights, rep.more_flights_needed
+        );
+        return Ok(());
+    }
+    let (train, held, rule) = split_flights(flights, given);
+    let rule = rule.describe();
+    if train.len() < 2 {
+        bail!(
+            "{} training flights: the diagnosis needs at least 2 (give fewer --holdout flights)",
+            train.len()
+        );
+    }
+    let tr: Vec<&FlightRecord> = train.iter().collect();
+    let he: Vec<&FlightRecord> = held.iter().collect();
+    let report: GapReport = match &params {
+        Some(params) => run_gap(
+            Baseline::Rig(&params.curve, params.rotor_count),
+            &tr,
+            &he,
+            &opts,
+        )?,
         None => run_gap::<ConstantPower>(Baseline::FromTraining, &tr, &he, &opts)?,
     };
     let d = &report.diagnosis;
@@ -324,54 +402,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     println!();
     println!("gap before, held-out: {}", levels(&d.baseline.heldout));
-    println!("where:");
-    if !d.r#where.by_phase.is_empty() {
-        let parts: Vec<String> = d
-            .r#where
-            .by_phase
-            .iter()
-            .map(|p| format!("{} {:.0} %", p.phase.name(), p.share * 100.0))
-            .collect();
-        println!("  energy gap by phase: {}", parts.join(", "));
-    }
-    let parts: Vec<String> = d
-        .r#where
-        .voltage_by_phase_v
-        .iter()
-        .map(|p| format!("{} {:+.3} V", p.phase.name(), p.residual_v))
-        .collect();
-    println!(
-        "  voltage residual by phase (measured − predicted): {}",
-        parts.join(", ")
-    );
-    let parts: Vec<String> = d
-        .r#where
-        .by_state_of_charge
-        .iter()
-        .map(|t| {
-            format!(
-                "{} {:+.3} V ({:.0} %)",
-                t.part,
-                t.residual_v,
-                t.share * 100.0
-            )
-        })
-        .collect();
-    println!("  by state of charge: {}", parts.join(", "));
-    let mut cov: Vec<&gap::diagnose::CovariateCorrelation> =
-        d.r#where.by_covariate.iter().collect();
-    cov.sort_by(|a, b| b.r2.total_cmp(&a.r2));
-    let parts: Vec<String> = cov
-        .iter()
-        .take(3)
-        .map(|c| format!("{} (r = {:+.2})", c.name, c.r))
-        .collect();
-    if !parts.is_empty() {
-        println!(
-            "  strongest covariates of the per-flight error: {}",
-            parts.join(", ")
-        );
-    }
+    print_where(&d.r#where);
     println!();
     let unit = d.headline.level.unit();
     if d.within_noise {
