@@ -393,6 +393,7 @@ pub fn run<C: PowerCurve>(
             let model = Model { curve, rotor_count };
             let batteries = learn_batteries(model, train, opts);
             let d = diagnose_with(model, &batteries, train, heldout, opts)?;
+            check_chi2(&d)?;
             Ok(GapReport {
                 baseline_source: "rig curve through the paper's model (eqs. 1-9)".into(),
                 estimated_hover_power_w: None,
@@ -410,12 +411,14 @@ pub fn run<C: PowerCurve>(
                     .unwrap_or_else(crate::battery::LearnedBattery::lipo),
             );
             let curve = estimate_hover_power(train, &prior, opts);
+            check_hover_power(&curve, train)?;
             let model = Model {
                 curve: &curve,
                 rotor_count: 1,
             };
             let batteries = learn_batteries(model, train, opts);
             let d = diagnose_with(model, &batteries, train, heldout, opts)?;
+            check_chi2(&d)?;
             let heldout_series = series(model, &batteries, &d, heldout);
             Ok(GapReport {
                 baseline_source: if curve.reference_mass_kg.is_finite() {
@@ -432,6 +435,43 @@ pub fn run<C: PowerCurve>(
             })
         }
     }
+}
+
+/// Largest baseline χ² per observation the diagnosis accepts: residuals a thousand times the
+/// noise floors mean the inputs are wrong (units, a disconnected battery, a wrong cell count),
+/// not that an effect is missing.
+pub const MAX_PLAUSIBLE_CHI2_PER_OBS: f64 = 1e6;
+
+/// Stops on an estimated hover power no flying robot has: at or below its avionics power, or
+/// below 0.1 W.
+pub fn check_hover_power(curve: &ConstantPower, flights: &[&FlightRecord]) -> Result<(), GapError> {
+    let avionics = flights
+        .iter()
+        .map(|f| f.info.avionics_power_w)
+        .fold(0.0, f64::max);
+    if !(curve.hover_power_w.is_finite() && curve.hover_power_w > avionics.max(0.1)) {
+        return Err(GapError::Implausible(format!(
+            "the hover power estimated from the flights is {:.3} W, {} — check the voltage and current units, the cell count and that the battery was connected",
+            curve.hover_power_w,
+            if avionics > 0.0 {
+                format!("not above the avionics power {avionics:.2} W")
+            } else {
+                "below 0.1 W".to_owned()
+            }
+        )));
+    }
+    Ok(())
+}
+
+/// Stops on a baseline so far from the flights that no effect can be the reason.
+pub fn check_chi2(d: &Diagnosis) -> Result<(), GapError> {
+    let c = d.baseline.training.chi2_per_obs;
+    if !c.is_finite() || c > MAX_PLAUSIBLE_CHI2_PER_OBS {
+        return Err(GapError::Implausible(format!(
+            "the baseline misses the training flights by χ² {c:.3e} per observation (more than {MAX_PLAUSIBLE_CHI2_PER_OBS:.0e}: residuals over a thousand times the noise floors) — the inputs are wrong (units, cell count, metadata), not an effect missing"
+        )));
+    }
+    Ok(())
 }
 
 /// Fewest flights the attribution needs: two to fit on and one held out to check on.

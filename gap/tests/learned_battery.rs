@@ -291,3 +291,26 @@ fn more_effects_than_the_library_holds_is_an_error() {
     let e = diagnose(model, &train, &held, &opts).unwrap_err();
     assert!(e.to_string().contains("max_effects 9"), "{e}");
 }
+
+#[test]
+fn a_hover_power_below_the_avionics_stops_with_a_reason() {
+    let w = world(0.0);
+    let mut flights: Vec<FlightRecord> = w.train.clone();
+    // A disconnected battery: the logged current is next to nothing.
+    for f in &mut flights {
+        for c in f.current_a.as_mut().unwrap() {
+            *c *= 1e-4;
+        }
+    }
+    let train: Vec<&FlightRecord> = flights.iter().collect();
+    let held: Vec<&FlightRecord> = flights.iter().take(1).collect();
+    let e = gap::logs::run::<ConstantPower>(
+        gap::logs::Baseline::FromTraining,
+        &train,
+        &held,
+        &DiagnoseOptions::default(),
+    )
+    .unwrap_err();
+    assert!(matches!(e, gap::GapError::Implausible(_)), "{e}");
+    assert!(e.to_string().contains("avionics power"), "{e}");
+}
