@@ -40,6 +40,11 @@ pub struct Args {
     /// diagnosis learns from the flights (the resistances are still learned).
     #[arg(long, value_name = "CSV")]
     battery_ocv_csv: Option<PathBuf>,
+    /// The packs' chemistry, when known: lipo, lihv, li_ion_nmc or li_ion_nca (only its prior is
+    /// used, held close; unknown, every prior is tried and a lost capacity may pass for a
+    /// chemistry whose knee comes earlier).
+    #[arg(long, value_name = "CHEMISTRY")]
+    chemistry: Option<String>,
     /// Most effects combined in the verdict (1 to 8).
     #[arg(long, default_value_t = 2)]
     max_effects: usize,
@@ -215,6 +220,16 @@ pub fn run(args: Args) -> Result<()> {
         opts.measured_ocv = Some(
             gap::battery::LearnedBattery::from_ocv_csv(&text)
                 .with_context(|| format!("{}", p.display()))?,
+        );
+    }
+    if let Some(c) = &args.chemistry {
+        opts.chemistry = Some(
+            gap::battery::Chemistry::PRIORS
+                .into_iter()
+                .find(|k| k.name() == c.as_str())
+                .with_context(|| {
+                    format!("--chemistry {c}: expected lipo, lihv, li_ion_nmc or li_ion_nca")
+                })?,
         );
     }
     let params = match &args.params {
