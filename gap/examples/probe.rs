@@ -16,13 +16,19 @@ fn main() {
             curve: &curve,
             rotor_count: 4,
         };
-        let d = gap::diagnose::diagnose(model, &train, &held, &Default::default());
+        let d = match gap::diagnose::diagnose(model, &train, &held, &Default::default()) {
+            Ok(d) => d,
+            Err(e) => {
+                println!("seed {seed}: {e}");
+                continue;
+            }
+        };
         println!(
             "seed {seed} truth {:?} -> {} (base chi2/obs {:.2}, after {:.2})",
             truth,
             gap::eval::label_of_verdict(&d),
-            d.baseline.0.chi2_per_obs,
-            d.after.0.chi2_per_obs
+            d.baseline.training.chi2_per_obs,
+            d.after.training.chi2_per_obs
         );
         println!("   stability {:?}", d.stability);
         let mut c = d.candidates.clone();

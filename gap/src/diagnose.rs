@@ -1,12 +1,21 @@
-//! The diagnosis: localise the gap, fit the candidate effects on training flights, select by
-//! information criterion and held-out error, and say honestly when nothing (or nothing known)
-//! explains it.
+//! The diagnosis, in named steps: [`learn_batteries`] (the nuisance model), [`localise`] (where
+//! the gap sits), [`fit_candidates`] (every observable effect on the training flights),
+//! [`select`] (information criterion and cross-validation by flight, greedily up to
+//! `max_effects`), [`judge_on_heldout`] (an effect that makes the held-out endurance worse, or
+//! whose share is negative, is dropped), [`check_stability`] (early against late half) and
+//! [`attribute_shares`] (Shapley shares of the held-out gap). It says honestly when nothing
+//! (or nothing known) explains the gap, and names the residual that remains.
 
 use estimator::PowerCurve;
 use serde::Serialize;
 
+use crate::GapError;
+use crate::battery::{
+    BatteryData, BatteryFit, Chemistry, CurrentSource, LearnedBattery, battery_type, fit_battery,
+};
 use crate::flight::{FlightRecord, Phase};
 use crate::model::{Effect, EffectParams, Model, Prediction};
+use crate::stats::{golden_min, mean, pearson};
 
 /// Noise floors: how closely the model can be expected to follow a flight even when nothing is
 /// missing from it (sensor noise, control activity, battery dynamics the model leaves out).
@@ -15,7 +24,7 @@ use crate::model::{Effect, EffectParams, Model, Prediction};
 pub struct NoiseFloors {
     /// Voltage, V.
     pub voltage_v: f64,
-    /// Mean power of a phase, as a fraction.
+    /// Energy of a phase, as a fraction of the flight's energy.
     pub power_fraction: f64,
     /// Endurance, as a fraction.
     pub endurance_fraction: f64,
@@ -53,6 +62,13 @@ pub struct DiagnoseOptions {
     pub max_effects: usize,
     /// Folds of the cross-validation by flight.
     pub cv_folds: usize,
+    /// A measured open-circuit curve that overrides the learned one's shape (every battery
+    /// type), from `--battery-ocv-csv`.
+    pub measured_ocv: Option<LearnedBattery>,
+    /// The packs' chemistry when known (`--chemistry`): only its prior is tried. Unknown, every
+    /// prior is tried and the best-fitting kept — and then a lost capacity cannot be told from
+    /// a chemistry whose knee comes earlier (see [`crate::battery`]).
+    pub chemistry: Option<Chemistry>,
 }
 
 impl Default for DiagnoseOptions {
@@ -73,6 +89,8 @@ impl Default for DiagnoseOptions {
             points_per_flight: 160,
             voltage_obs_per_flight: 8.0,
             max_effects: 2,
+            measured_ocv: None,
+            chemistry: None,
         }
     }
 }
@@ -84,26 +102,64 @@ pub struct FlightResiduals {
     pub name: String,
     /// Predicted minus measured endurance, relative, when the flight ended at the cut-off.
     pub endurance_error: Option<f64>,
-    /// Predicted and measured endurance, s.
-    pub endurance_s: (f64, f64),
-    /// Per phase: (phase, measured mean power W, predicted mean power W, time s), when current
-    /// is logged.
-    pub phase_power: Vec<(Phase, f64, f64, f64)>,
+    /// Predicted and measured endurance.
+    pub endurance: Endurance,
+    /// Mean power per phase, measured and predicted, when current is logged.
+    pub phase_power: Vec<PhasePower>,
     /// RMS of measured minus predicted voltage, V.
     pub voltage_rmse_v: f64,
     /// Mean voltage residual (measured minus predicted) in thirds of the discharge (early,
     /// middle, late by predicted state of charge), V.
     pub voltage_by_charge_v: [Option<f64>; 3],
-    /// Mean voltage residual by phase, V.
-    pub voltage_by_phase_v: Vec<(Phase, f64)>,
+    /// Mean voltage residual by phase.
+    pub voltage_by_phase_v: Vec<PhaseVoltage>,
     /// χ² contribution and observation count.
     pub chi2: f64,
     /// Observations.
     pub n_obs: f64,
 }
 
-fn mean(v: &[f64]) -> Option<f64> {
-    (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+/// Predicted and measured endurance of a flight.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Endurance {
+    /// Predicted, s.
+    pub predicted_s: f64,
+    /// Measured (the log's duration), s.
+    pub measured_s: f64,
+}
+
+/// Mean battery power of one phase of a flight.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PhasePower {
+    /// The phase.
+    pub phase: Phase,
+    /// Measured mean power, W.
+    pub measured_w: f64,
+    /// Predicted mean power, W.
+    pub predicted_w: f64,
+    /// Time in the phase, s.
+    pub time_s: f64,
+}
+
+/// Mean voltage residual (measured − predicted) in one phase.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PhaseVoltage {
+    /// The phase.
+    pub phase: Phase,
+    /// Mean residual, V.
+    pub residual_v: f64,
+}
+
+/// Mean voltage residual of held-out flights in one phase, before and after the selected
+/// effects (for the residual-by-phase plot).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PhaseBeforeAfter {
+    /// The phase.
+    pub phase: Phase,
+    /// Baseline mean residual, V.
+    pub before_v: f64,
+    /// Mean residual with the selected effects, V.
+    pub after_v: f64,
 }
 
 /// Which part of each flight residuals are counted over.
@@ -166,6 +222,7 @@ pub fn residuals(
     // predicted cut-off the model's voltage is the cut-off, so it pays for every sample it
     // missed. (For cut-off flights the endurance residual already says it.)
     if f.info.ended_at_cutoff {
+        // The endurance residual already counts what the model missed.
     } else if let Some(&last) = pred.index.last() {
         let stride = if pred.index.len() > 1 {
             pred.index[1] - pred.index[0]
@@ -195,7 +252,9 @@ pub fn residuals(
         chi2 += s / m * opts.voltage_obs_per_flight;
         n_obs += opts.voltage_obs_per_flight;
     }
-    // Phase power, when current is logged.
+    // Energy per phase, when current is logged: each phase's energy error (mean power error ×
+    // time in the phase) as a share of the flight's measured energy, so that a short, low-power
+    // phase whose mean is noisy weighs as little as the energy it holds.
     let mut phase_power = Vec::new();
     if let Some(cur) = &f.current_a {
         for phase in Phase::ALL {
@@ -216,17 +275,30 @@ pub fn residuals(
                     .filter(|(p, _)| **p == phase)
                     .map(|(_, w)| w[1] - w[0])
                     .sum();
-                let e = (pp - pm) / pm.abs().max(1e-6);
+                phase_power.push(PhasePower {
+                    phase,
+                    measured_w: pm,
+                    predicted_w: pp,
+                    time_s: time,
+                });
+            }
+        }
+        let total: f64 = phase_power.iter().map(|p| p.measured_w * p.time_s).sum();
+        if total > 0.0 {
+            for p in &phase_power {
+                let e = (p.predicted_w - p.measured_w) * p.time_s / total;
                 chi2 += (e / fl.power_fraction).powi(2);
                 n_obs += 1.0;
-                phase_power.push((phase, pm, pp, time));
             }
         }
     }
     FlightResiduals {
         name: f.name.clone(),
         endurance_error,
-        endurance_s: (pred.endurance_s, measured_s),
+        endurance: Endurance {
+            predicted_s: pred.endurance_s,
+            measured_s,
+        },
         phase_power,
         voltage_rmse_v,
         voltage_by_charge_v: [
@@ -236,7 +308,7 @@ pub fn residuals(
         ],
         voltage_by_phase_v: by_phase
             .into_iter()
-            .filter_map(|(p, v)| mean(&v).map(|m| (p, m)))
+            .filter_map(|(phase, v)| mean(&v).map(|residual_v| PhaseVoltage { phase, residual_v }))
             .collect(),
         chi2,
         n_obs,
@@ -248,8 +320,9 @@ pub fn residuals(
 pub struct LevelErrors {
     /// Mean absolute endurance error over cut-off flights, %.
     pub endurance_pct: Option<f64>,
-    /// Mean absolute phase-power error, %.
-    pub phase_power_pct: Option<f64>,
+    /// Mean over flights of the absolute energy error summed over phases, as a share of the
+    /// flight's measured energy, % (flights with current).
+    pub phase_energy_pct: Option<f64>,
     /// RMS voltage error, V.
     pub voltage_rmse_v: Option<f64>,
     /// χ² per observation.
@@ -257,17 +330,24 @@ pub struct LevelErrors {
 }
 
 impl LevelErrors {
-    fn of(res: &[FlightResiduals]) -> Self {
+    /// The errors of a set of per-flight residuals.
+    pub fn of(res: &[FlightResiduals]) -> Self {
         let end: Vec<f64> = res
             .iter()
             .filter_map(|r| r.endurance_error.map(|e| e.abs() * 100.0))
             .collect();
         let pow: Vec<f64> = res
             .iter()
-            .flat_map(|r| {
-                r.phase_power
-                    .iter()
-                    .map(|(_, m, p, _)| ((p - m) / m).abs() * 100.0)
+            .filter_map(|r| {
+                let total: f64 = r.phase_power.iter().map(|p| p.measured_w * p.time_s).sum();
+                (total > 0.0).then(|| {
+                    r.phase_power
+                        .iter()
+                        .map(|p| ((p.predicted_w - p.measured_w) * p.time_s).abs())
+                        .sum::<f64>()
+                        / total
+                        * 100.0
+                })
             })
             .collect();
         let v: Vec<f64> = res
@@ -278,20 +358,70 @@ impl LevelErrors {
         let n: f64 = res.iter().map(|r| r.n_obs).sum();
         Self {
             endurance_pct: mean(&end),
-            phase_power_pct: mean(&pow),
+            phase_energy_pct: mean(&pow),
             voltage_rmse_v: mean(&v).map(f64::sqrt),
             chi2_per_obs: if n > 0.0 { chi2 / n } else { 0.0 },
         }
     }
 
-    /// The headline gap: endurance error if measured, else phase power, else voltage
-    /// (in that level's unit).
+    /// The headline gap, judged on what the effects physically change: the endurance error if
+    /// measured, else the phase-power (energy per phase) error, else the voltage RMSE.
     pub fn headline(&self) -> f64 {
-        self.endurance_pct
-            .or(self.phase_power_pct)
-            .or(self.voltage_rmse_v)
-            .unwrap_or(0.0)
+        self.headline_level().1
     }
+
+    /// The headline gap with its level.
+    pub fn headline_level(&self) -> (Level, f64) {
+        if let Some(v) = self.endurance_pct {
+            (Level::Endurance, v)
+        } else if let Some(v) = self.phase_energy_pct {
+            (Level::PhaseEnergy, v)
+        } else {
+            (Level::Voltage, self.voltage_rmse_v.unwrap_or(0.0))
+        }
+    }
+}
+
+/// The level a gap is measured at.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Level {
+    /// Endurance of cut-off flights, %.
+    Endurance,
+    /// Energy per phase, as a share of the flight's energy, %.
+    PhaseEnergy,
+    /// Voltage trajectory RMSE, V.
+    Voltage,
+}
+
+impl Level {
+    /// The unit the level's gap is in.
+    pub fn unit(self) -> &'static str {
+        match self {
+            Level::Endurance | Level::PhaseEnergy => "%",
+            Level::Voltage => "V",
+        }
+    }
+}
+
+/// Errors on the training and on the held-out flights.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Default)]
+pub struct TrainHeld {
+    /// On the training flights.
+    pub training: LevelErrors,
+    /// On the held-out flights.
+    pub heldout: LevelErrors,
+}
+
+/// The held-out headline gap before and after the selected effects, at one level.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct HeadlineGap {
+    /// The level (endurance, else phase power, else voltage).
+    pub level: Level,
+    /// Before, in the level's unit (% or V).
+    pub before: f64,
+    /// After, in the level's unit.
+    pub after: f64,
 }
 
 /// A fitted effect in the result.
@@ -299,16 +429,100 @@ impl LevelErrors {
 pub struct FittedEffect {
     /// The effect.
     pub effect: Effect,
-    /// Parameter name and value.
-    pub parameters: Vec<(String, f64)>,
+    /// Its parameter.
+    pub parameter: Parameter,
     /// Approximate standard error of the parameter (from the curvature of χ²).
     pub std_error: f64,
-    /// Share of the held-out gap this effect closes (Shapley value over insertion orders).
+    /// Share of the held-out headline gap this effect closes (Shapley value over insertion
+    /// orders), 0..1.
     pub share_of_gap: f64,
-    /// Held-out headline gap before any effect, % (or V).
-    pub heldout_error_before_pct: f64,
-    /// Held-out headline gap with the selected effects, % (or V).
-    pub heldout_error_after_pct: f64,
+    /// Held-out endurance (else phase-power) error before any effect, %; `None` when the
+    /// held-out flights measure neither (then the shares are of the voltage RMSE).
+    pub heldout_error_before_pct: Option<f64>,
+    /// The same with the selected effects, %.
+    pub heldout_error_after_pct: Option<f64>,
+}
+
+/// A named parameter value.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Parameter {
+    /// Name with unit.
+    pub name: String,
+    /// Value.
+    pub value: f64,
+}
+
+/// An effect selected on the training flights and then dropped, with why.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Rejected {
+    /// The effect.
+    pub effect: Effect,
+    /// Why.
+    pub reason: String,
+}
+
+/// A selected parameter fitted on the early and on the late half of the flights.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Stability {
+    /// The effect.
+    pub effect: Effect,
+    /// Fitted on the early half.
+    pub early: f64,
+    /// Fitted on the late half.
+    pub late: f64,
+    /// Difference in standard errors.
+    pub z: f64,
+}
+
+/// Training and held-out flight names.
+#[derive(Debug, Clone, PartialEq, Serialize, Default)]
+pub struct Split {
+    /// Training flights.
+    pub train: Vec<String>,
+    /// Held-out flights.
+    pub heldout: Vec<String>,
+}
+
+/// Share of the energy gap in one phase.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct PhaseShare {
+    /// The phase.
+    pub phase: Phase,
+    /// Share, 0..1.
+    pub share: f64,
+}
+
+/// The voltage residual in one third of the discharge.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ChargeThird {
+    /// Which third.
+    pub part: String,
+    /// Mean residual (measured − predicted), V.
+    pub residual_v: f64,
+    /// Share of the squared residual, 0..1.
+    pub share: f64,
+}
+
+/// A per-flight covariate against the per-flight error.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CovariateCorrelation {
+    /// Covariate.
+    pub name: String,
+    /// Pearson correlation.
+    pub r: f64,
+    /// Share of the between-flight variance it explains (r²).
+    pub r2: f64,
+}
+
+/// What remains after the selected effects, named.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Residual {
+    /// Where the remaining gap sits, in words.
+    pub description: String,
+    /// Held-out voltage RMSE left, V.
+    pub voltage_rmse_v: Option<f64>,
+    /// Mean held-out voltage residual in the early, middle and late third of the discharge, V.
+    pub by_state_of_charge_v: [Option<f64>; 3],
 }
 
 /// One candidate model tried.
@@ -331,16 +545,14 @@ pub struct Candidate {
 /// Where the gap sits.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Where {
-    /// Share of the energy gap by phase (flights with current), 0..1 each.
-    pub by_phase: Vec<(Phase, f64)>,
-    /// Mean voltage residual by phase, V.
-    pub voltage_by_phase_v: Vec<(Phase, f64)>,
-    /// Mean voltage residual in the early, middle and late discharge, V, and each third's share
-    /// of the squared residual.
-    pub by_state_of_charge: Vec<(String, f64, f64)>,
-    /// Per-flight covariates against the endurance (or voltage) error: name, correlation,
-    /// share of the between-flight variance explained (r²).
-    pub by_covariate: Vec<(String, f64, f64)>,
+    /// Share of the energy gap by phase (flights with current).
+    pub by_phase: Vec<PhaseShare>,
+    /// Mean voltage residual by phase.
+    pub voltage_by_phase_v: Vec<PhaseVoltage>,
+    /// Mean voltage residual in the early, middle and late discharge.
+    pub by_state_of_charge: Vec<ChargeThird>,
+    /// Per-flight covariates against the endurance (or voltage) error.
+    pub by_covariate: Vec<CovariateCorrelation>,
 }
 
 /// The diagnosis.
@@ -356,34 +568,205 @@ pub struct Diagnosis {
     pub effects: Vec<FittedEffect>,
     /// Where the baseline gap sits.
     pub r#where: Where,
-    /// Baseline errors, training and held-out.
-    pub baseline: (LevelErrors, LevelErrors),
+    /// The batteries learned from the training flights, one per battery type.
+    pub batteries: Vec<BatteryFit>,
+    /// Baseline errors (learned battery, no effect), training and held-out.
+    pub baseline: TrainHeld,
     /// Errors with the selected effects, training and held-out.
-    pub after: (LevelErrors, LevelErrors),
+    pub after: TrainHeld,
+    /// The held-out headline gap before and after, at the level the shares are of.
+    pub headline: HeadlineGap,
     /// Every model tried.
     pub candidates: Vec<Candidate>,
-    /// Stability of each selected parameter: (effect, fitted on the early half, on the late
-    /// half, difference in standard errors).
-    pub stability: Vec<(Effect, f64, f64, f64)>,
+    /// Effects selected on the training flights but dropped on the held-out ones.
+    pub rejected: Vec<Rejected>,
+    /// Stability of each selected parameter between the early and the late half.
+    pub stability: Vec<Stability>,
+    /// What remains after the selected effects (when the gap is not within noise).
+    pub residual: Option<Residual>,
     /// Training and held-out flight names.
-    pub split: (Vec<String>, Vec<String>),
+    pub split: Split,
     /// Per-flight residuals of the baseline on held-out flights.
     pub heldout_baseline: Vec<FlightResiduals>,
     /// Per-flight residuals of the selected model on held-out flights.
     pub heldout_after: Vec<FlightResiduals>,
 }
 
-struct Evaluator<'a, C> {
+impl Diagnosis {
+    /// Held-out mean voltage residual per phase, before and after the selected effects.
+    pub fn heldout_voltage_by_phase(&self) -> Vec<PhaseBeforeAfter> {
+        let phase_mean = |res: &[FlightResiduals], p: Phase| {
+            let v: Vec<f64> = res
+                .iter()
+                .flat_map(|r| {
+                    r.voltage_by_phase_v
+                        .iter()
+                        .filter(|x| x.phase == p)
+                        .map(|x| x.residual_v)
+                })
+                .collect();
+            mean(&v)
+        };
+        Phase::ALL
+            .into_iter()
+            .filter_map(|phase| {
+                Some(PhaseBeforeAfter {
+                    phase,
+                    before_v: phase_mean(&self.heldout_baseline, phase)?,
+                    after_v: phase_mean(&self.heldout_after, phase)?,
+                })
+            })
+            .collect()
+    }
+
+    /// The effect parameters of the selected model.
+    pub fn selected_params(&self) -> EffectParams {
+        let mut p = EffectParams::baseline();
+        for e in &self.effects {
+            p.set(e.effect, e.parameter.value);
+        }
+        p
+    }
+}
+
+/// The learned batteries of a flight set, by battery type, with the pooled one for types no
+/// training flight had, and the baseline's version of each (its series resistance from
+/// [`crate::model::baseline_cell_resistance_ohm`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct BatterySet {
+    /// One fit per battery type among the training flights.
+    pub fits: Vec<BatteryFit>,
+    /// The baseline battery of each fit, in the same order.
+    pub baselines: Vec<LearnedBattery>,
+    /// Learned on every training flight together (baseline version).
+    pub pooled: LearnedBattery,
+}
+
+impl BatterySet {
+    /// The same battery for every flight (no learning).
+    pub fn fixed(b: LearnedBattery) -> Self {
+        Self {
+            fits: Vec::new(),
+            baselines: Vec::new(),
+            pooled: b,
+        }
+    }
+
+    /// The baseline battery of a flight.
+    pub fn for_flight(&self, f: &FlightRecord) -> &LearnedBattery {
+        let t = battery_type(f);
+        self.fits
+            .iter()
+            .position(|b| b.battery_type == t)
+            .map_or(&self.pooled, |k| &self.baselines[k])
+    }
+}
+
+fn baseline_of(fit: &BatteryFit) -> LearnedBattery {
+    let mut b = fit.battery;
+    b.series_resistance_cell_ohm = crate::model::baseline_cell_resistance_ohm(
+        &fit.battery,
+        fit.current == CurrentSource::Logged,
+    );
+    b
+}
+
+/// Step 0: learns each battery type's open-circuit curve, series resistance and RC pair from
+/// the training flights (see [`crate::battery`]). Flights without a current log get the
+/// current the model's baseline power draws at their measured voltage.
+pub fn learn_batteries<C: PowerCurve>(
+    model: Model<'_, C>,
+    train: &[&FlightRecord],
+    opts: &DiagnoseOptions,
+) -> BatterySet {
+    let data: Vec<BatteryData<'_>> = train
+        .iter()
+        .map(|f| match &f.current_a {
+            Some(c) => BatteryData {
+                flight: f,
+                current_a: c.clone(),
+                source: CurrentSource::Logged,
+            },
+            None => {
+                let w = model.power_series_w(f, &EffectParams::baseline());
+                BatteryData {
+                    flight: f,
+                    current_a: w
+                        .iter()
+                        .zip(&f.voltage_v)
+                        .map(|(w, v)| w / v.max(0.1))
+                        .collect(),
+                    source: CurrentSource::PowerModel,
+                }
+            }
+        })
+        .collect();
+    let mut types: Vec<String> = data.iter().map(|d| battery_type(d.flight)).collect();
+    types.sort();
+    types.dedup();
+    let measured = opts.measured_ocv.as_ref();
+    let mut fits: Vec<BatteryFit> = types
+        .iter()
+        .map(|t| {
+            let mine: Vec<BatteryData<'_>> = data
+                .iter()
+                .filter(|d| battery_type(d.flight) == *t)
+                .cloned()
+                .collect();
+            fit_battery(t, &mine, measured, opts.chemistry)
+        })
+        .collect();
+    let pooled_fit = if fits.len() == 1 {
+        fits[0].clone()
+    } else {
+        fit_battery("all training flights", &data, measured, opts.chemistry)
+    };
+    let pooled = pooled_fit.battery;
+    // A type whose own data could not teach the shape borrows the pooled shape.
+    for f in &mut fits {
+        if f.samples < crate::battery::MIN_SAMPLES && f.prior != crate::battery::Chemistry::Measured
+        {
+            f.battery.ocv_cell_v = pooled.ocv_cell_v;
+            f.note
+                .push_str("; the curve's shape from all training flights pooled");
+        }
+    }
+    BatterySet {
+        baselines: fits.iter().map(baseline_of).collect(),
+        fits,
+        pooled: baseline_of(&pooled_fit),
+    }
+}
+
+/// Evaluates effect parameters on flights: the model with the learned batteries.
+pub struct Evaluator<'a, C> {
     model: Model<'a, C>,
+    batteries: &'a BatterySet,
     opts: DiagnoseOptions,
 }
 
-impl<C: PowerCurve> Evaluator<'_, C> {
+impl<'a, C: PowerCurve> Evaluator<'a, C> {
+    /// An evaluator of `model` with `batteries`.
+    pub fn new(model: Model<'a, C>, batteries: &'a BatterySet, opts: &DiagnoseOptions) -> Self {
+        Self {
+            model,
+            batteries,
+            opts: *opts,
+        }
+    }
+
     fn stride(&self, f: &FlightRecord) -> usize {
         (f.time_s.len() / self.opts.points_per_flight.max(1)).max(1)
     }
 
-    fn residuals(&self, flights: &[&FlightRecord], p: &EffectParams) -> Vec<FlightResiduals> {
+    /// The prediction for one flight.
+    pub fn predict(&self, f: &FlightRecord, p: &EffectParams, stride: usize) -> Prediction {
+        self.model
+            .predict(f, self.batteries.for_flight(f), p, stride)
+    }
+
+    /// Residuals of every flight.
+    pub fn residuals(&self, flights: &[&FlightRecord], p: &EffectParams) -> Vec<FlightResiduals> {
         self.residuals_in(flights, p, Window::All)
     }
 
@@ -395,40 +778,23 @@ impl<C: PowerCurve> Evaluator<'_, C> {
     ) -> Vec<FlightResiduals> {
         flights
             .iter()
-            .map(|f| {
-                residuals(
-                    f,
-                    &self.model.predict(f, p, self.stride(f)),
-                    &self.opts,
-                    window,
-                )
-            })
+            .map(|f| residuals(f, &self.predict(f, p, self.stride(f)), &self.opts, window))
             .collect()
     }
 
-    fn chi2(&self, flights: &[&FlightRecord], p: &EffectParams) -> (f64, f64) {
+    fn chi2(&self, flights: &[&FlightRecord], p: &EffectParams) -> f64 {
         self.chi2_in(flights, p, Window::All)
     }
 
-    fn chi2_in(&self, flights: &[&FlightRecord], p: &EffectParams, window: Window) -> (f64, f64) {
-        let r = self.residuals_in(flights, p, window);
-        (
-            r.iter().map(|x| x.chi2).sum(),
-            r.iter().map(|x| x.n_obs).sum(),
-        )
+    fn chi2_in(&self, flights: &[&FlightRecord], p: &EffectParams, window: Window) -> f64 {
+        self.residuals_in(flights, p, window)
+            .iter()
+            .map(|x| x.chi2)
+            .sum()
     }
 
-    /// Minimises χ² over the parameters of `effects` within their bounds (golden section per
-    /// coordinate, a few sweeps for several effects).
-    fn fit(
-        &self,
-        flights: &[&FlightRecord],
-        effects: &[Effect],
-        start: &EffectParams,
-    ) -> (EffectParams, f64) {
-        self.fit_in(flights, effects, start, Window::All)
-    }
-
+    /// Minimises χ² over the parameters of `effects` within their bounds (a coarse scan then a
+    /// golden section per coordinate; a few sweeps for several effects).
     fn fit_in(
         &self,
         flights: &[&FlightRecord],
@@ -443,16 +809,15 @@ impl<C: PowerCurve> Evaluator<'_, C> {
             }
         }
         let sweeps = if effects.len() > 1 { 3 } else { 1 };
-        let mut best = self.chi2_in(flights, &p, window).0;
+        let mut best = self.chi2_in(flights, &p, window);
         for _ in 0..sweeps {
             for &e in effects {
                 let (lo, hi) = e.bounds();
                 let f = |x: f64| {
                     let mut q = p.clone();
                     q.set(e, x);
-                    self.chi2_in(flights, &q, window).0
+                    self.chi2_in(flights, &q, window)
                 };
-                // Coarse scan then golden section (χ² need not be unimodal over wide bounds).
                 let steps = 12;
                 let mut bx = p.get(e);
                 let mut bv = best;
@@ -480,11 +845,16 @@ impl<C: PowerCurve> Evaluator<'_, C> {
         (p, best)
     }
 
-    /// Standard error of one parameter from the χ² curvature (Δχ² = 1).
-    fn std_error(&self, flights: &[&FlightRecord], p: &EffectParams, e: Effect) -> f64 {
-        self.std_error_in(flights, p, e, Window::All)
+    fn fit(
+        &self,
+        flights: &[&FlightRecord],
+        effects: &[Effect],
+        start: &EffectParams,
+    ) -> (EffectParams, f64) {
+        self.fit_in(flights, effects, start, Window::All)
     }
 
+    /// Standard error of one parameter from the χ² curvature (Δχ² = 1).
     fn std_error_in(
         &self,
         flights: &[&FlightRecord],
@@ -494,11 +864,11 @@ impl<C: PowerCurve> Evaluator<'_, C> {
     ) -> f64 {
         let (lo, hi) = e.bounds();
         let h = (hi - lo) * 1e-3;
-        let x = p.get(e);
+        let x = p.get(e).clamp(lo + h, hi - h);
         let at = |v: f64| {
             let mut q = p.clone();
             q.set(e, v);
-            self.chi2_in(flights, &q, window).0
+            self.chi2_in(flights, &q, window)
         };
         let c = (at(x + h) - 2.0 * at(x) + at(x - h)) / (h * h);
         if c > 0.0 {
@@ -508,138 +878,88 @@ impl<C: PowerCurve> Evaluator<'_, C> {
         }
     }
 
-    /// Cross-validated χ² of a model: flights split round-robin into `folds`, each fold
+    /// Cross-validated χ² of a model: flights split round-robin into folds, each fold
     /// predicted with parameters fitted on the others (warm-started from `full`).
-    fn cv_chi2(
-        &self,
-        flights: &[&FlightRecord],
-        effects: &[Effect],
-        full: &EffectParams,
-        folds: usize,
-    ) -> f64 {
-        let folds = folds.min(flights.len()).max(2);
+    fn cv_chi2(&self, flights: &[&FlightRecord], effects: &[Effect], full: &EffectParams) -> f64 {
+        let folds = self.opts.cv_folds.min(flights.len()).max(2);
         let mut total = 0.0;
         for k in 0..folds {
+            let in_fold = |i: &usize| i % folds == k;
             let fit_on: Vec<&FlightRecord> = flights
                 .iter()
                 .enumerate()
-                .filter(|(i, _)| i % folds != k)
+                .filter(|(i, _)| !in_fold(i))
                 .map(|(_, f)| *f)
                 .collect();
             let test: Vec<&FlightRecord> = flights
                 .iter()
                 .enumerate()
-                .filter(|(i, _)| i % folds == k)
+                .filter(|(i, _)| in_fold(i))
                 .map(|(_, f)| *f)
                 .collect();
-            let p = if effects.is_empty() {
+            let p = if effects.is_empty() || fit_on.is_empty() {
                 full.clone()
             } else {
                 self.fit(&fit_on, effects, full).0
             };
-            total += self.chi2(&test, &p).0;
+            total += self.chi2(&test, &p);
         }
         total
     }
 }
 
-/// Golden-section search for the minimum of `f` on `[a, b]`: the best of the last two interior
-/// points after `iterations` steps, with its value.
-pub(crate) fn golden_min(
-    f: &dyn Fn(f64) -> f64,
-    mut a: f64,
-    mut b: f64,
-    iterations: usize,
-) -> (f64, f64) {
-    let g = (5f64.sqrt() - 1.0) / 2.0;
-    let mut c = b - g * (b - a);
-    let mut d = a + g * (b - a);
-    let (mut fc, mut fd) = (f(c), f(d));
-    for _ in 0..iterations {
-        if fc < fd {
-            b = d;
-            d = c;
-            fd = fc;
-            c = b - g * (b - a);
-            fc = f(c);
-        } else {
-            a = c;
-            c = d;
-            fc = fd;
-            d = a + g * (b - a);
-            fd = f(d);
-        }
-    }
-    if fc < fd { (c, fc) } else { (d, fd) }
-}
-
-fn pearson(x: &[f64], y: &[f64]) -> Option<f64> {
-    let n = x.len();
-    if n < 3 {
-        return None;
-    }
-    let (mx, my) = (mean(x)?, mean(y)?);
-    let sxy: f64 = x.iter().zip(y).map(|(a, b)| (a - mx) * (b - my)).sum();
-    let sxx: f64 = x.iter().map(|a| (a - mx).powi(2)).sum();
-    let syy: f64 = y.iter().map(|b| (b - my).powi(2)).sum();
-    // A covariate that does not vary across the flights says nothing.
-    let varies = sxx > 1e-18 * (mx * mx).max(1e-300) * n as f64;
-    (varies && syy > 0.0).then(|| sxy / (sxx * syy).sqrt())
-}
-
 /// A per-flight covariate: its name and how to read it.
 type Covariate = (&'static str, fn(&FlightRecord) -> Option<f64>);
 
-fn locate(flights: &[&FlightRecord], res: &[FlightResiduals]) -> Where {
+/// Step 1: where the gap sits, from the baseline residuals of every flight.
+pub fn localise(flights: &[&FlightRecord], res: &[FlightResiduals]) -> Where {
     // Energy gap by phase: (measured − predicted) power × time.
-    let mut by_phase: Vec<(Phase, f64)> = Vec::new();
+    let mut by_phase: Vec<PhaseShare> = Vec::new();
     for r in res {
-        for &(phase, m, p, t) in &r.phase_power {
-            let e = ((m - p) * t).abs();
-            match by_phase.iter_mut().find(|(x, _)| *x == phase) {
-                Some((_, v)) => *v += e,
-                None => by_phase.push((phase, e)),
+        for pp in &r.phase_power {
+            let e = ((pp.measured_w - pp.predicted_w) * pp.time_s).abs();
+            match by_phase.iter_mut().find(|x| x.phase == pp.phase) {
+                Some(x) => x.share += e,
+                None => by_phase.push(PhaseShare {
+                    phase: pp.phase,
+                    share: e,
+                }),
             }
         }
     }
-    let total: f64 = by_phase.iter().map(|(_, e)| e).sum();
+    let total: f64 = by_phase.iter().map(|x| x.share).sum();
     if total > 0.0 {
-        for (_, e) in &mut by_phase {
-            *e /= total;
+        for x in &mut by_phase {
+            x.share /= total;
         }
     }
     let mut vp: Vec<(Phase, Vec<f64>)> = Vec::new();
     for r in res {
-        for &(p, v) in &r.voltage_by_phase_v {
-            match vp.iter_mut().find(|(x, _)| *x == p) {
-                Some((_, l)) => l.push(v),
-                None => vp.push((p, vec![v])),
+        for x in &r.voltage_by_phase_v {
+            match vp.iter_mut().find(|(p, _)| *p == x.phase) {
+                Some((_, l)) => l.push(x.residual_v),
+                None => vp.push((x.phase, vec![x.residual_v])),
             }
         }
     }
-    let thirds = ["early (full to 2/3)", "middle", "late (last third)"];
-    let per_third: Vec<f64> = (0..3)
-        .map(|k| {
-            mean(
-                &res.iter()
-                    .filter_map(|r| r.voltage_by_charge_v[k])
-                    .collect::<Vec<_>>(),
-            )
-            .unwrap_or(0.0)
-        })
-        .collect();
-    let sq: f64 = per_third.iter().map(|v| v * v).sum();
-    let by_state_of_charge = thirds
+    let per_third = thirds_of(res);
+    let sq: f64 = per_third.iter().map(|v| v.unwrap_or(0.0).powi(2)).sum();
+    let by_state_of_charge = THIRDS
         .iter()
         .zip(&per_third)
-        .map(|(n, v)| ((*n).to_owned(), *v, if sq > 0.0 { v * v / sq } else { 0.0 }))
+        .map(|(n, v)| {
+            let v = v.unwrap_or(0.0);
+            ChargeThird {
+                part: (*n).to_owned(),
+                residual_v: v,
+                share: if sq > 0.0 { v * v / sq } else { 0.0 },
+            }
+        })
         .collect();
-    // Covariates against each flight's headline error.
     let err: Vec<f64> = res
         .iter()
         .map(|r| r.endurance_error.map_or(r.voltage_rmse_v, |e| e * 100.0))
         .collect();
-    let mut by_covariate = Vec::new();
     let covs: [Covariate; 7] = [
         ("payload_mass_kg", |f| Some(f.info.payload_mass_kg)),
         ("payload_power_w", |f| Some(f.info.payload_power_w)),
@@ -652,189 +972,474 @@ fn locate(flights: &[&FlightRecord], res: &[FlightResiduals]) -> Where {
             Some(a as f64 / f.phase.len().max(1) as f64)
         }),
     ];
+    let mut by_covariate = Vec::new();
     for (name, get) in covs.iter() {
-        let pairs: Vec<(f64, f64)> = flights
+        let (x, y): (Vec<f64>, Vec<f64>) = flights
             .iter()
             .zip(&err)
             .filter_map(|(f, e)| get(f).map(|x| (x, *e)))
-            .collect();
-        let (x, y): (Vec<f64>, Vec<f64>) = pairs.into_iter().unzip();
+            .unzip();
         if let Some(r) = pearson(&x, &y) {
-            by_covariate.push(((*name).to_owned(), r, r * r));
+            by_covariate.push(CovariateCorrelation {
+                name: (*name).to_owned(),
+                r,
+                r2: r * r,
+            });
         }
     }
     Where {
         by_phase,
         voltage_by_phase_v: vp
             .into_iter()
-            .filter_map(|(p, v)| mean(&v).map(|m| (p, m)))
+            .filter_map(|(phase, v)| mean(&v).map(|residual_v| PhaseVoltage { phase, residual_v }))
             .collect(),
         by_state_of_charge,
         by_covariate,
     }
 }
 
-/// Diagnoses the gap between the model and the flights: fits on `train`, checks on `heldout`.
+const THIRDS: [&str; 3] = ["early (full to 2/3)", "middle", "late (last third)"];
+
+fn thirds_of(res: &[FlightResiduals]) -> [Option<f64>; 3] {
+    let m = |k: usize| {
+        mean(
+            &res.iter()
+                .filter_map(|r| r.voltage_by_charge_v[k])
+                .collect::<Vec<_>>(),
+        )
+    };
+    [m(0), m(1), m(2)]
+}
+
+/// One effect fitted alone on the training flights.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SingleFit {
+    /// The effect.
+    pub effect: Effect,
+    /// Fitted parameters.
+    pub params: EffectParams,
+    /// Training χ².
+    pub chi2: f64,
+}
+
+/// Step 2: fits every observable effect alone on the training flights, best first.
+pub fn fit_candidates<C: PowerCurve>(
+    ev: &Evaluator<'_, C>,
+    train: &[&FlightRecord],
+) -> Vec<SingleFit> {
+    let base = EffectParams::baseline();
+    let mut singles: Vec<SingleFit> = Effect::ALL
+        .into_iter()
+        .filter(|e| e.observable(train))
+        .map(|effect| {
+            let (params, chi2) = ev.fit(train, &[effect], &base);
+            SingleFit {
+                effect,
+                params,
+                chi2,
+            }
+        })
+        .collect();
+    singles.sort_by(|a, b| a.chi2.total_cmp(&b.chi2));
+    singles
+}
+
+/// The outcome of the selection on the training flights.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Selection {
+    /// Selected effects, in the order they were added.
+    pub effects: Vec<Effect>,
+    /// Their fitted parameters.
+    pub params: EffectParams,
+    /// Every model tried.
+    pub candidates: Vec<Candidate>,
+}
+
+/// Step 3: forward selection: the single that most lowers the cross-validated χ² (and the
+/// BIC) by at least `min_delta_bic`, then each further effect among the three best singles
+/// that does the same on top, up to `max_effects`.
+pub fn select<C: PowerCurve>(
+    ev: &Evaluator<'_, C>,
+    train: &[&FlightRecord],
+    heldout: &[&FlightRecord],
+    singles: &[SingleFit],
+    within_noise: bool,
+) -> Selection {
+    let opts = &ev.opts;
+    let th = opts.thresholds;
+    let base = EffectParams::baseline();
+    let base_res = ev.residuals(train, &base);
+    let n_obs: f64 = base_res.iter().map(|r| r.n_obs).sum::<f64>().max(1.0);
+    let ln_n = n_obs.ln();
+    let chi2_0: f64 = base_res.iter().map(|r| r.chi2).sum();
+    let candidate = |effects: &[Effect], p: &EffectParams, chi2: f64, cv: Option<f64>| Candidate {
+        effects: effects.to_vec(),
+        values: effects.iter().map(|e| p.get(*e)).collect(),
+        chi2,
+        bic: chi2 + effects.len() as f64 * ln_n,
+        cv_chi2: cv,
+        heldout: LevelErrors::of(&ev.residuals(heldout, p)),
+    };
+    let base_cv = ev.cv_chi2(train, &[], &base);
+    let mut candidates = vec![candidate(&[], &base, chi2_0, Some(base_cv))];
+    let mut chosen: Vec<Effect> = Vec::new();
+    let mut params = base.clone();
+    let (mut best_cv, mut best_bic) = (base_cv, chi2_0);
+    for (rank, s) in singles.iter().enumerate() {
+        let promising = opts.max_effects >= 1
+            && rank < 3
+            && chi2_0 - s.chi2 > th.min_delta_bic
+            && !within_noise;
+        let cv = promising.then(|| ev.cv_chi2(train, &[s.effect], &s.params));
+        candidates.push(candidate(&[s.effect], &s.params, s.chi2, cv));
+        if let Some(cv) = cv {
+            let bic = s.chi2 + ln_n;
+            if best_cv - cv >= th.min_delta_bic && best_bic - bic >= th.min_delta_bic {
+                best_cv = cv;
+                best_bic = bic;
+                chosen = vec![s.effect];
+                params = s.params.clone();
+            }
+        }
+    }
+    // Further effects, one at a time, among the three best singles.
+    while !chosen.is_empty() && chosen.len() < opts.max_effects {
+        let mut step: Option<(Effect, EffectParams, f64, f64)> = None;
+        for s in singles
+            .iter()
+            .take(3)
+            .filter(|s| !chosen.contains(&s.effect))
+        {
+            let mut set = chosen.clone();
+            set.push(s.effect);
+            let (p, chi2) = ev.fit(train, &set, &params);
+            let bic = chi2 + set.len() as f64 * ln_n;
+            let cv = (best_bic - bic >= th.min_delta_bic).then(|| ev.cv_chi2(train, &set, &p));
+            candidates.push(candidate(&set, &p, chi2, cv));
+            if let Some(cv) = cv {
+                if best_cv - cv >= th.min_delta_bic && step.as_ref().is_none_or(|x| cv < x.2) {
+                    step = Some((s.effect, p, cv, bic));
+                }
+            }
+        }
+        match step {
+            Some((e, p, cv, bic)) => {
+                chosen.push(e);
+                params = p;
+                best_cv = cv;
+                best_bic = bic;
+            }
+            None => break,
+        }
+    }
+    Selection {
+        effects: chosen,
+        params,
+        candidates,
+    }
+}
+
+fn with_only(params: &EffectParams, set: &[Effect]) -> EffectParams {
+    let mut q = EffectParams::baseline();
+    for e in set {
+        q.set(*e, params.get(*e));
+    }
+    q
+}
+
+/// Step 4: judges the selection on what it physically changes on the held-out flights: an
+/// effect without which the held-out endurance (else phase-power) error is lower is dropped,
+/// and so is one whose share of the gap is negative. Returns the kept effects and the dropped
+/// ones with the reason.
+pub fn judge_on_heldout<C: PowerCurve>(
+    ev: &Evaluator<'_, C>,
+    heldout: &[&FlightRecord],
+    selection: &Selection,
+) -> (Vec<Effect>, Vec<Rejected>) {
+    // Endurance first, else energy per phase; only when the held-out flights measure neither,
+    // the voltage trajectory.
+    let physical = |set: &[Effect]| {
+        let e = LevelErrors::of(&ev.residuals(heldout, &with_only(&selection.params, set)));
+        e.endurance_pct.or(e.phase_energy_pct).or(e.voltage_rmse_v)
+    };
+    let base_errors = LevelErrors::of(&ev.residuals(heldout, &EffectParams::baseline()));
+    let unit = if base_errors.endurance_pct.is_some() {
+        "endurance (%)"
+    } else if base_errors.phase_energy_pct.is_some() {
+        "energy-per-phase (%)"
+    } else {
+        "voltage (V)"
+    };
+    let mut kept = selection.effects.clone();
+    let mut rejected = Vec::new();
+    while let Some(with) = physical(&kept) {
+        let mut worst: Option<(Effect, f64, String)> = None;
+        for &e in &kept {
+            let without: Vec<Effect> = kept.iter().copied().filter(|x| *x != e).collect();
+            let wo = physical(&without).unwrap_or(with);
+            let base = physical(&[]).unwrap_or(with);
+            let alone = physical(&[e]).unwrap_or(base);
+            let reason = if wo < with {
+                Some(format!(
+                    "held-out {unit} error {wo:.3} without it, {with:.3} with it"
+                ))
+            } else if alone > base {
+                Some(format!(
+                    "negative share: alone it takes the held-out {unit} error from {base:.3} to {alone:.3}"
+                ))
+            } else {
+                None
+            };
+            if let Some(r) = reason {
+                let harm = with - wo;
+                if worst.as_ref().is_none_or(|w| harm > w.1) {
+                    worst = Some((e, harm, r));
+                }
+            }
+        }
+        match worst {
+            Some((e, _, reason)) => {
+                kept.retain(|x| *x != e);
+                rejected.push(Rejected { effect: e, reason });
+            }
+            None => break,
+        }
+    }
+    (kept, rejected)
+}
+
+/// Step 5: a right model explains the early and the late half of the flights with the same
+/// parameters; an effect standing in for something else drifts between them.
+pub fn check_stability<C: PowerCurve>(
+    ev: &Evaluator<'_, C>,
+    train: &[&FlightRecord],
+    effects: &[Effect],
+    params: &EffectParams,
+) -> Vec<Stability> {
+    effects
+        .iter()
+        .map(|&e| {
+            let (pe, _) = ev.fit_in(train, &[e], params, Window::Early);
+            let (pl, _) = ev.fit_in(train, &[e], params, Window::Late);
+            let se = ev.std_error_in(train, &pe, e, Window::Early);
+            let sl = ev.std_error_in(train, &pl, e, Window::Late);
+            let z = (pe.get(e) - pl.get(e)).abs() / (se * se + sl * sl).sqrt();
+            Stability {
+                effect: e,
+                early: pe.get(e),
+                late: pl.get(e),
+                z: if z.is_finite() { z } else { 0.0 },
+            }
+        })
+        .collect()
+}
+
+/// Step 6: each effect's Shapley share of the held-out headline gap (the mean, over every
+/// order of adding the effects, of the gap it closes when added).
+pub fn attribute_shares<C: PowerCurve>(
+    ev: &Evaluator<'_, C>,
+    train: &[&FlightRecord],
+    heldout: &[&FlightRecord],
+    effects: &[Effect],
+    params: &EffectParams,
+    level: Level,
+) -> Vec<FittedEffect> {
+    let n = effects.len();
+    let gap_of = |mask: usize| -> f64 {
+        let set: Vec<Effect> = (0..n)
+            .filter(|k| mask & (1 << k) != 0)
+            .map(|k| effects[k])
+            .collect();
+        let e = LevelErrors::of(&ev.residuals(heldout, &with_only(params, &set)));
+        match level {
+            Level::Endurance => e.endurance_pct.unwrap_or(0.0),
+            Level::PhaseEnergy => e.phase_energy_pct.unwrap_or(0.0),
+            Level::Voltage => e.voltage_rmse_v.unwrap_or(0.0),
+        }
+    };
+    let gaps: Vec<f64> = (0..(1usize << n)).map(gap_of).collect();
+    let g0 = gaps[0];
+    let all = gaps[(1 << n) - 1];
+    let fact = |k: usize| (1..=k).map(|x| x as f64).product::<f64>();
+    let pct = |v: f64| (level != Level::Voltage).then_some(v);
+    effects
+        .iter()
+        .enumerate()
+        .map(|(k, &e)| {
+            // Shapley: Σ over subsets S without k of |S|!(n−|S|−1)!/n! · (g(S) − g(S∪k)).
+            let mut share = 0.0;
+            for mask in 0..(1usize << n) {
+                if mask & (1 << k) != 0 {
+                    continue;
+                }
+                let s = mask.count_ones() as usize;
+                let w = fact(s) * fact(n - s - 1) / fact(n);
+                share += w * (gaps[mask] - gaps[mask | (1 << k)]);
+            }
+            FittedEffect {
+                effect: e,
+                parameter: Parameter {
+                    name: e.parameter_name().to_owned(),
+                    value: params.get(e),
+                },
+                std_error: ev.std_error_in(train, params, e, Window::All),
+                share_of_gap: if g0 > 0.0 { share / g0 } else { 0.0 },
+                heldout_error_before_pct: pct(g0),
+                heldout_error_after_pct: pct(all),
+            }
+        })
+        .collect()
+}
+
+/// Names what is left of the gap after the selected effects, from the held-out residuals.
+pub fn describe_residual(after: &[FlightResiduals], errors: &LevelErrors) -> Residual {
+    let thirds = thirds_of(after);
+    let mut parts = Vec::new();
+    if let Some(e) = errors.endurance_pct {
+        let bias = mean(
+            &after
+                .iter()
+                .filter_map(|r| r.endurance_error.map(|x| x * 100.0))
+                .collect::<Vec<_>>(),
+        )
+        .unwrap_or(0.0);
+        parts.push(format!(
+            "endurance off by {e:.2} % (the model flies {} on average)",
+            if bias > 0.0 { "longer" } else { "shorter" }
+        ));
+    }
+    if let Some(p) = errors.phase_energy_pct {
+        parts.push(format!(
+            "energy per phase off by {p:.2} % of the flight's energy"
+        ));
+    }
+    let named: Vec<(usize, f64)> = thirds
+        .iter()
+        .enumerate()
+        .filter_map(|(k, v)| v.map(|v| (k, v)))
+        .collect();
+    if let Some(&(k, v)) = named.iter().max_by(|a, b| a.1.abs().total_cmp(&b.1.abs())) {
+        let what = match (k, v < 0.0) {
+            (2, true) => {
+                "the late-discharge knee comes earlier or falls steeper than the learned curve's"
+            }
+            (2, false) => {
+                "the voltage holds up longer at the end of the discharge than the learned curve says"
+            }
+            (0, true) => {
+                "the voltage sags more at the start than the model says (early dynamics or a cold pack)"
+            }
+            (0, false) => "the pack starts higher than the learned curve says",
+            (_, true) => "the voltage sits lower mid-discharge than the model says",
+            (_, false) => "the voltage sits higher mid-discharge than the model says",
+        };
+        parts.push(format!(
+            "voltage residual largest in the {} ({v:+.3} V): {what}",
+            THIRDS[k]
+        ));
+    }
+    Residual {
+        description: parts.join("; "),
+        voltage_rmse_v: errors.voltage_rmse_v,
+        by_state_of_charge_v: thirds,
+    }
+}
+
+/// Diagnoses the gap between the model and the flights: learns the batteries on `train`, fits
+/// and selects on `train`, judges and reports on `heldout`. Errors when `max_effects` is above
+/// the number of library effects.
 pub fn diagnose<C: PowerCurve>(
     model: Model<'_, C>,
     train: &[&FlightRecord],
     heldout: &[&FlightRecord],
     opts: &DiagnoseOptions,
-) -> Diagnosis {
-    let ev = Evaluator { model, opts: *opts };
+) -> Result<Diagnosis, GapError> {
+    let batteries = learn_batteries(model, train, opts);
+    diagnose_with(model, &batteries, train, heldout, opts)
+}
+
+/// [`diagnose`] with batteries already learned.
+pub fn diagnose_with<C: PowerCurve>(
+    model: Model<'_, C>,
+    batteries: &BatterySet,
+    train: &[&FlightRecord],
+    heldout: &[&FlightRecord],
+    opts: &DiagnoseOptions,
+) -> Result<Diagnosis, GapError> {
+    if opts.max_effects > Effect::ALL.len() {
+        return Err(GapError::Options(format!(
+            "max_effects {} is more than the {} effects in the library",
+            opts.max_effects,
+            Effect::ALL.len()
+        )));
+    }
+    if train.is_empty() {
+        return Err(GapError::NoFlights("training"));
+    }
+    if heldout.is_empty() {
+        return Err(GapError::NoFlights("held-out"));
+    }
+    let ev = Evaluator::new(model, batteries, opts);
     let base = EffectParams::baseline();
     let base_train = ev.residuals(train, &base);
     let base_held = ev.residuals(heldout, &base);
-    let base_err = (LevelErrors::of(&base_train), LevelErrors::of(&base_held));
-    let n_obs: f64 = base_train.iter().map(|r| r.n_obs).sum::<f64>().max(1.0);
-    let ln_n = n_obs.ln();
-    let chi2_0: f64 = base_train.iter().map(|r| r.chi2).sum();
-
-    let folds = opts.cv_folds;
-    let mut candidates = vec![Candidate {
-        effects: vec![],
-        values: vec![],
-        chi2: chi2_0,
-        bic: chi2_0,
-        cv_chi2: Some(ev.cv_chi2(train, &[], &base, folds)),
-        heldout: base_err.1,
-    }];
-    let observable: Vec<Effect> = Effect::ALL
-        .into_iter()
-        .filter(|e| e.observable(train))
-        .collect();
+    let baseline = TrainHeld {
+        training: LevelErrors::of(&base_train),
+        heldout: LevelErrors::of(&base_held),
+    };
     let th = opts.thresholds;
-    let within_noise = base_err.0.chi2_per_obs <= th.none_chi2_per_obs;
-    let push = |candidates: &mut Vec<Candidate>,
-                effects: &[Effect],
-                p: &EffectParams,
-                chi2: f64,
-                cv: Option<f64>| {
-        candidates.push(Candidate {
-            effects: effects.to_vec(),
-            values: effects.iter().map(|e| p.get(*e)).collect(),
-            chi2,
-            bic: chi2 + effects.len() as f64 * ln_n,
-            cv_chi2: cv,
-            heldout: LevelErrors::of(&ev.residuals(heldout, p)),
-        });
-    };
-    // Singles, ranked by BIC; the best three are cross-validated.
-    let mut singles: Vec<(Effect, EffectParams, f64)> = observable
-        .iter()
-        .map(|&e| {
-            let (p, chi2) = ev.fit(train, &[e], &base);
-            (e, p, chi2)
-        })
-        .collect();
-    singles.sort_by(|a, b| a.2.total_cmp(&b.2));
-    let mut chosen: Option<(Vec<Effect>, EffectParams)> = None;
-    let mut best_cv = candidates[0].cv_chi2.unwrap_or(f64::INFINITY);
-    let mut best_bic = chi2_0;
-    for (rank, (e, p, chi2)) in singles.iter().enumerate() {
-        let promising = rank < 3 && chi2_0 - chi2 > th.min_delta_bic && !within_noise;
-        let cv = promising.then(|| ev.cv_chi2(train, &[*e], p, folds));
-        push(&mut candidates, &[*e], p, *chi2, cv);
-        if let Some(cv) = cv {
-            let bic = chi2 + ln_n;
-            if best_cv - cv >= th.min_delta_bic && best_bic - bic >= th.min_delta_bic {
-                best_cv = cv;
-                best_bic = bic;
-                chosen = Some((vec![*e], p.clone()));
-            }
-        }
-    }
-    // Pairs: the chosen single with each other promising single.
-    if let (Some((first, p1)), true) = (chosen.clone(), opts.max_effects >= 2) {
-        let others: Vec<Effect> = singles
-            .iter()
-            .take(3)
-            .map(|s| s.0)
-            .filter(|e| *e != first[0])
-            .collect();
-        let single_bic = best_bic;
-        let single_cv = best_cv;
-        for o in others {
-            let (p, chi2) = ev.fit(train, &[first[0], o], &p1);
-            let bic = chi2 + 2.0 * ln_n;
-            let cv = (single_bic - bic >= th.min_delta_bic)
-                .then(|| ev.cv_chi2(train, &[first[0], o], &p, folds));
-            push(&mut candidates, &[first[0], o], &p, chi2, cv);
-            if let Some(cv) = cv {
-                if single_cv - cv >= th.min_delta_bic && cv < best_cv {
-                    best_cv = cv;
-                    chosen = Some((vec![first[0], o], p.clone()));
-                }
-            }
-        }
-    }
-    let (verdict, params) = chosen.unwrap_or((vec![], base.clone()));
-    let after_train = ev.residuals(train, &params);
-    let after_held = ev.residuals(heldout, &params);
-    let after_err = (LevelErrors::of(&after_train), LevelErrors::of(&after_held));
-    // Misspecification: a right model explains the early and the late half of the flights with
-    // the same parameters; an effect standing in for something else drifts between them.
-    let mut stability = Vec::new();
-    for &e in &verdict {
-        let (pe, _) = ev.fit_in(train, &[e], &params, Window::Early);
-        let (pl, _) = ev.fit_in(train, &[e], &params, Window::Late);
-        let se = ev.std_error_in(train, &pe, e, Window::Early);
-        let sl = ev.std_error_in(train, &pl, e, Window::Late);
-        let z = (pe.get(e) - pl.get(e)).abs() / (se * se + sl * sl).sqrt();
-        stability.push((e, pe.get(e), pl.get(e), if z.is_finite() { z } else { 0.0 }));
-    }
-    let unstable = stability.iter().any(|s| s.3 > th.stability_z);
-    let unexplained =
-        !within_noise && (after_err.0.chi2_per_obs > th.unexplained_chi2_per_obs || unstable);
+    let within_noise = baseline.training.chi2_per_obs <= th.none_chi2_per_obs;
 
-    // Shares: Shapley values of the held-out headline gap over insertion orders.
-    let g0 = base_err.1.headline();
-    let gap_with = |set: &[Effect]| -> f64 {
-        let mut q = EffectParams::baseline();
-        for e in set {
-            q.set(*e, params.get(*e));
-        }
-        LevelErrors::of(&ev.residuals(heldout, &q)).headline()
-    };
-    let effects = verdict
-        .iter()
-        .map(|&e| {
-            let others: Vec<Effect> = verdict.iter().copied().filter(|x| *x != e).collect();
-            // With at most two effects: average of "e first" and "e after the other".
-            let first = g0 - gap_with(&[e]);
-            let share = if others.is_empty() {
-                first
-            } else {
-                let after_other = gap_with(&others) - gap_with(&verdict);
-                0.5 * (first + after_other)
-            };
-            FittedEffect {
-                effect: e,
-                parameters: vec![(e.parameter_name().to_owned(), params.get(e))],
-                std_error: ev.std_error(train, &params, e),
-                share_of_gap: if g0 > 0.0 { share / g0 } else { 0.0 },
-                heldout_error_before_pct: g0,
-                heldout_error_after_pct: after_err.1.headline(),
-            }
-        })
-        .collect();
     let all: Vec<&FlightRecord> = train.iter().chain(heldout).copied().collect();
     let all_res: Vec<FlightResiduals> = base_train.iter().chain(&base_held).cloned().collect();
-    Diagnosis {
+    let r#where = localise(&all, &all_res);
+
+    let singles = fit_candidates(&ev, train);
+    let selection = select(&ev, train, heldout, &singles, within_noise);
+    let (verdict, rejected) = judge_on_heldout(&ev, heldout, &selection);
+    let params = with_only(&selection.params, &verdict);
+    let after_train = ev.residuals(train, &params);
+    let after_held = ev.residuals(heldout, &params);
+    let after = TrainHeld {
+        training: LevelErrors::of(&after_train),
+        heldout: LevelErrors::of(&after_held),
+    };
+    let stability = check_stability(&ev, train, &verdict, &params);
+    let unstable = stability.iter().any(|s| s.z > th.stability_z);
+    let unexplained =
+        !within_noise && (after.training.chi2_per_obs > th.unexplained_chi2_per_obs || unstable);
+    let (level, before_h) = baseline.heldout.headline_level();
+    let after_h = match level {
+        Level::Endurance => after.heldout.endurance_pct,
+        Level::PhaseEnergy => after.heldout.phase_energy_pct,
+        Level::Voltage => after.heldout.voltage_rmse_v,
+    }
+    .unwrap_or(0.0);
+    let effects = attribute_shares(&ev, train, heldout, &verdict, &params, level);
+    let residual = (!within_noise).then(|| describe_residual(&after_held, &after.heldout));
+    Ok(Diagnosis {
         verdict,
         unexplained,
         within_noise,
         effects,
-        r#where: locate(&all, &all_res),
-        baseline: base_err,
-        after: after_err,
-        candidates,
+        r#where,
+        batteries: batteries.fits.clone(),
+        baseline,
+        after,
+        headline: HeadlineGap {
+            level,
+            before: before_h,
+            after: after_h,
+        },
+        candidates: selection.candidates,
+        rejected,
         stability,
-        split: (
-            train.iter().map(|f| f.name.clone()).collect(),
-            heldout.iter().map(|f| f.name.clone()).collect(),
-        ),
+        residual,
+        split: Split {
+            train: train.iter().map(|f| f.name.clone()).collect(),
+            heldout: heldout.iter().map(|f| f.name.clone()).collect(),
+        },
         heldout_baseline: base_held,
         heldout_after: after_held,
-    }
+    })
 }

@@ -282,7 +282,21 @@ pub fn run_scenario<C: PowerCurve>(
     let train: Vec<&FlightRecord> = set.train.iter().collect();
     let held: Vec<&FlightRecord> = set.heldout.iter().collect();
     // Blind: only flights and the rig curve go in.
-    let d = diagnose(model, &train, &held, opts);
+    let d = match diagnose(model, &train, &held, opts) {
+        Ok(d) => d,
+        Err(e) => {
+            return ScenarioResult {
+                seed,
+                truth: label_of_truth(&truth),
+                magnitude: 0.0,
+                impact_pct: set.truth.endurance_impact_pct(),
+                verdict: format!("error: {e}"),
+                correct: false,
+                heldout_before: f64::NAN,
+                heldout_after: f64::NAN,
+            };
+        }
+    };
     let t = label_of_truth(&truth);
     let v = label_of_verdict(&d);
     let correct = match truth {
@@ -299,8 +313,8 @@ pub fn run_scenario<C: PowerCurve>(
         impact_pct: set.truth.endurance_impact_pct(),
         verdict: v,
         correct,
-        heldout_before: d.baseline.1.headline(),
-        heldout_after: d.after.1.headline(),
+        heldout_before: d.baseline.heldout.headline(),
+        heldout_after: d.after.heldout.headline(),
     }
 }
 

@@ -7,7 +7,7 @@ use flightlog::{End, Flight, PhaseSource};
 use serde::Serialize;
 
 use crate::GapError;
-use crate::diagnose::{DiagnoseOptions, Diagnosis, diagnose};
+use crate::diagnose::{BatterySet, DiagnoseOptions, Diagnosis, diagnose_with, learn_batteries};
 use crate::flight::{FlightInfo, FlightRecord, Phase};
 use crate::model::{EffectParams, Model};
 
@@ -108,8 +108,12 @@ impl PowerCurve for ConstantPower {
 
 /// Estimates the rotors' hover power from training flights: the mean measured hover power
 /// (battery power less idle power) when current is logged; otherwise the power that makes the
-/// baseline model follow the voltage trajectories best.
-pub fn estimate_hover_power(train: &[&FlightRecord], opts: &DiagnoseOptions) -> ConstantPower {
+/// baseline model follow the voltage trajectories best, with the batteries `batteries`.
+pub fn estimate_hover_power(
+    train: &[&FlightRecord],
+    batteries: &BatterySet,
+    opts: &DiagnoseOptions,
+) -> ConstantPower {
     let masses: Vec<f64> = train.iter().map(|f| f.info.total_mass_kg()).collect();
     let reference_mass_kg = if masses.iter().all(|m| m.is_finite() && *m > 0.0) {
         masses.iter().sum::<f64>() / masses.len() as f64
@@ -155,7 +159,12 @@ pub fn estimate_hover_power(train: &[&FlightRecord], opts: &DiagnoseOptions) -> 
             .iter()
             .map(|f| {
                 let stride = (f.time_s.len() / opts.points_per_flight.max(1)).max(1);
-                let pred = model.predict(f, &EffectParams::baseline(), stride);
+                let pred = model.predict(
+                    f,
+                    batteries.for_flight(f),
+                    &EffectParams::baseline(),
+                    stride,
+                );
                 let r: Vec<f64> = pred
                     .index
                     .iter()
@@ -203,7 +212,7 @@ pub fn estimate_hover_power(train: &[&FlightRecord], opts: &DiagnoseOptions) -> 
             .unwrap_or(1.0);
         (best / 1.3, best * 1.3)
     };
-    let (w, _) = crate::diagnose::golden_min(&chi2, a, b, 40);
+    let (w, _) = crate::stats::golden_min(&chi2, a, b, 40);
     ConstantPower {
         hover_power_w: w,
         reference_mass_kg,
@@ -235,7 +244,50 @@ pub fn default_split(names: &[String]) -> Vec<bool> {
     held
 }
 
+/// How the flights were split into training and held-out ones.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SplitRule {
+    /// Every third flight by name held out (no held-out flights given).
+    EveryThirdByName,
+    /// The held-out flights were given.
+    Given,
+}
+
+impl SplitRule {
+    /// In words.
+    pub fn describe(self) -> &'static str {
+        match self {
+            SplitRule::EveryThirdByName => {
+                "every third flight by name held out (no --holdout given)"
+            }
+            SplitRule::Given => "--holdout",
+        }
+    }
+}
+
+/// Splits flights into training and held-out ones: the given held-out flights, or, when none
+/// are given, every third of `flights` by name ([`default_split`]).
+pub fn split_flights(
+    flights: Vec<FlightRecord>,
+    given_heldout: Vec<FlightRecord>,
+) -> (Vec<FlightRecord>, Vec<FlightRecord>, SplitRule) {
+    if !given_heldout.is_empty() {
+        return (flights, given_heldout, SplitRule::Given);
+    }
+    let names: Vec<String> = flights.iter().map(|f| f.name.clone()).collect();
+    let mask = default_split(&names);
+    let (mut train, mut held) = (Vec::new(), Vec::new());
+    for (f, h) in flights.into_iter().zip(mask) {
+        if h { held.push(f) } else { train.push(f) }
+    }
+    (train, held, SplitRule::EveryThirdByName)
+}
+
 /// Compares names with embedded numbers naturally ("2" before "10").
+///
+/// A copy of `flightlog`'s (crate-private there); to be replaced by it once `flightlog` exports
+/// it.
 pub fn natural_cmp(a: &str, b: &str) -> std::cmp::Ordering {
     let key = |s: &str| -> Vec<(String, u64)> {
         let mut out = Vec::new();
@@ -275,19 +327,17 @@ pub struct HeldoutSeries {
 
 fn series<C: PowerCurve>(
     model: Model<'_, C>,
+    batteries: &BatterySet,
     d: &Diagnosis,
     flights: &[&FlightRecord],
 ) -> Vec<HeldoutSeries> {
-    let mut after = EffectParams::baseline();
-    for e in &d.effects {
-        after.set(e.effect, e.parameters[0].1);
-    }
+    let after = d.selected_params();
     flights
         .iter()
         .map(|f| {
             let stride = (f.time_s.len() / 400).max(1);
             let on_grid = |p: &EffectParams| {
-                let pred = model.predict(f, p, stride);
+                let pred = model.predict(f, batteries.for_flight(f), p, stride);
                 let mut v = vec![f64::NAN; f.time_s.len().div_ceil(stride)];
                 for (k, i) in pred.index.iter().enumerate() {
                     if let Some(slot) = v.get_mut(i / stride) {
@@ -341,22 +391,35 @@ pub fn run<C: PowerCurve>(
                 require_masses(f)?;
             }
             let model = Model { curve, rotor_count };
-            let d = diagnose(model, train, heldout, opts);
+            let batteries = learn_batteries(model, train, opts);
+            let d = diagnose_with(model, &batteries, train, heldout, opts)?;
+            check_chi2(&d)?;
             Ok(GapReport {
                 baseline_source: "rig curve through the paper's model (eqs. 1-9)".into(),
                 estimated_hover_power_w: None,
-                heldout_series: series(model, &d, heldout),
+                heldout_series: series(model, &batteries, &d, heldout),
                 diagnosis: d,
             })
         }
         Baseline::FromTraining => {
-            let curve = estimate_hover_power(train, opts);
+            // The hover power first, with the prior battery (from logged current when there
+            // is one; otherwise from the voltage's slope), then the battery with that power.
+            // Without current the two are not learned jointly: a smaller power and a larger
+            // resistance would explain the same voltage, and the joint fit drifts there.
+            let prior = BatterySet::fixed(
+                opts.measured_ocv
+                    .unwrap_or_else(crate::battery::LearnedBattery::lipo),
+            );
+            let curve = estimate_hover_power(train, &prior, opts);
+            check_hover_power(&curve, train)?;
             let model = Model {
                 curve: &curve,
                 rotor_count: 1,
             };
-            let d = diagnose(model, train, heldout, opts);
-            let heldout_series = series(model, &d, heldout);
+            let batteries = learn_batteries(model, train, opts);
+            let d = diagnose_with(model, &batteries, train, heldout, opts)?;
+            check_chi2(&d)?;
+            let heldout_series = series(model, &batteries, &d, heldout);
             Ok(GapReport {
                 baseline_source: if curve.reference_mass_kg.is_finite() {
                     format!(
@@ -372,4 +435,134 @@ pub fn run<C: PowerCurve>(
             })
         }
     }
+}
+
+/// Largest baseline χ² per observation the diagnosis accepts: residuals a thousand times the
+/// noise floors mean the inputs are wrong (units, a disconnected battery, a wrong cell count),
+/// not that an effect is missing.
+pub const MAX_PLAUSIBLE_CHI2_PER_OBS: f64 = 1e6;
+
+/// Stops on an estimated hover power no flying robot has: at or below its avionics power, or
+/// below 0.1 W.
+pub fn check_hover_power(curve: &ConstantPower, flights: &[&FlightRecord]) -> Result<(), GapError> {
+    let avionics = flights
+        .iter()
+        .map(|f| f.info.avionics_power_w)
+        .fold(0.0, f64::max);
+    if !(curve.hover_power_w.is_finite() && curve.hover_power_w > avionics.max(0.1)) {
+        return Err(GapError::Implausible(format!(
+            "the hover power estimated from the flights is {:.3} W, {} — check the voltage and current units, the cell count and that the battery was connected",
+            curve.hover_power_w,
+            if avionics > 0.0 {
+                format!("not above the avionics power {avionics:.2} W")
+            } else {
+                "below 0.1 W".to_owned()
+            }
+        )));
+    }
+    Ok(())
+}
+
+/// Stops on a baseline so far from the flights that no effect can be the reason.
+pub fn check_chi2(d: &Diagnosis) -> Result<(), GapError> {
+    let c = d.baseline.training.chi2_per_obs;
+    if !c.is_finite() || c > MAX_PLAUSIBLE_CHI2_PER_OBS {
+        return Err(GapError::Implausible(format!(
+            "the baseline misses the training flights by χ² {c:.3e} per observation (more than {MAX_PLAUSIBLE_CHI2_PER_OBS:.0e}: residuals over a thousand times the noise floors) — the inputs are wrong (units, cell count, metadata), not an effect missing"
+        )));
+    }
+    Ok(())
+}
+
+/// Fewest flights the attribution needs: two to fit on and one held out to check on.
+pub const MIN_FLIGHTS_FOR_ATTRIBUTION: usize = 3;
+
+/// Where the baseline and too few flights for an attribution part: the localisation alone.
+#[derive(Debug, Clone, Serialize)]
+pub struct LocalisationReport {
+    /// `rig curve` or `hover power estimated from these flights`.
+    pub baseline_source: String,
+    /// The estimated hover power (all rotors), W, when estimated.
+    pub estimated_hover_power_w: Option<f64>,
+    /// The batteries learned from these flights.
+    pub batteries: Vec<crate::battery::BatteryFit>,
+    /// The baseline's errors on these flights.
+    pub errors: crate::diagnose::LevelErrors,
+    /// Where the gap sits.
+    pub r#where: crate::diagnose::Where,
+    /// Flights read.
+    pub flights: usize,
+    /// More flights the attribution needs.
+    pub more_flights_needed: usize,
+}
+
+/// Localises the gap on fewer flights than an attribution needs (one log is a use case): the
+/// baseline (rig, or a hover power estimated from these flights) with the battery learned from
+/// them, and where the flights part from it.
+pub fn localise_only<C: PowerCurve>(
+    baseline: Baseline<'_, C>,
+    flights: &[&FlightRecord],
+    opts: &DiagnoseOptions,
+) -> Result<LocalisationReport, GapError> {
+    if flights.is_empty() {
+        return Err(GapError::NoFlights("readable"));
+    }
+    let more_flights_needed = MIN_FLIGHTS_FOR_ATTRIBUTION.saturating_sub(flights.len());
+    fn finish<C: PowerCurve>(
+        model: Model<'_, C>,
+        flights: &[&FlightRecord],
+        opts: &DiagnoseOptions,
+        (source, hover, more_flights_needed): (String, Option<f64>, usize),
+    ) -> LocalisationReport {
+        let batteries = learn_batteries(model, flights, opts);
+        let ev = crate::diagnose::Evaluator::new(model, &batteries, opts);
+        let res = ev.residuals(flights, &EffectParams::baseline());
+        LocalisationReport {
+            baseline_source: source,
+            estimated_hover_power_w: hover,
+            batteries: batteries.fits.clone(),
+            errors: crate::diagnose::LevelErrors::of(&res),
+            r#where: crate::diagnose::localise(flights, &res),
+            flights: flights.len(),
+            more_flights_needed,
+        }
+    }
+    Ok(match baseline {
+        Baseline::Rig(curve, rotor_count) => {
+            for f in flights {
+                require_masses(f)?;
+            }
+            finish(
+                Model { curve, rotor_count },
+                flights,
+                opts,
+                (
+                    "rig curve through the paper's model (eqs. 1-9)".into(),
+                    None,
+                    more_flights_needed,
+                ),
+            )
+        }
+        Baseline::FromTraining => {
+            let prior = BatterySet::fixed(
+                opts.measured_ocv
+                    .unwrap_or_else(crate::battery::LearnedBattery::lipo),
+            );
+            let curve = estimate_hover_power(flights, &prior, opts);
+            let model = Model {
+                curve: &curve,
+                rotor_count: 1,
+            };
+            finish(
+                model,
+                flights,
+                opts,
+                (
+                    "hover power estimated from these flights".into(),
+                    Some(curve.hover_power_w),
+                    more_flights_needed,
+                ),
+            )
+        }
+    })
 }

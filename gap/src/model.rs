@@ -4,8 +4,9 @@
 use estimator::PowerCurve;
 use serde::Serialize;
 
+use crate::battery::LearnedBattery;
 use crate::flight::{FlightRecord, Phase};
-use crate::lipo::{current_for_power, mean_ocv_cell_v, ocv_cell_v};
+use crate::lipo::current_for_power;
 
 /// Standard gravity, m/s².
 pub const G: f64 = 9.806_65;
@@ -86,7 +87,8 @@ impl Effect {
     /// lies inside.
     pub fn bounds(self) -> (f64, f64) {
         match self {
-            Effect::InternalResistance => (-0.01, 0.5),
+            // Extra resistance only adds to the nominal: a pack below nominal is no effect.
+            Effect::InternalResistance => (0.0, 0.5),
             Effect::CapacityFade => (-0.1, 0.5),
             Effect::Peukert => (0.0, 0.3),
             Effect::ControlOverhead => (-0.2, 0.6),
@@ -218,6 +220,25 @@ impl<C: PowerCurve> Model<'_, C> {
         self.curve.power_w(per_rotor).unwrap_or(f64::NAN) * n
     }
 
+    /// Battery power the model draws at every sample of `f` with effects `p`, W (the current
+    /// of a flight without a current log is this over the measured voltage).
+    pub fn power_series_w(&self, f: &FlightRecord, p: &EffectParams) -> Vec<f64> {
+        let rotor_w = self.hover_rotor_power_w(f);
+        let vz = if p.get(Effect::ClimbPower) != 0.0 {
+            f.vertical_speed_m_s(2.0)
+        } else {
+            None
+        };
+        let ceiling = if p.get(Effect::CeilingEffect) != 0.0 {
+            ceiling_height_m(f)
+        } else {
+            None
+        };
+        (0..f.time_s.len())
+            .map(|i| self.power_at(f, p, i, rotor_w, vz.as_deref(), ceiling))
+            .collect()
+    }
+
     /// Battery power the model draws at sample `i` of `f`, W.
     fn power_at(
         &self,
@@ -253,14 +274,26 @@ impl<C: PowerCurve> Model<'_, C> {
 
     /// Runs the battery through the flight's phases and predicts voltage, current, state of
     /// charge and the time of the cut-off. `stride` thins the samples evaluated (1 = all).
-    pub fn predict(&self, f: &FlightRecord, p: &EffectParams, stride: usize) -> Prediction {
+    ///
+    /// `battery` is the baseline's battery: the learned one with the series resistance of
+    /// [`baseline_cell_resistance_ohm`] (see [`crate::diagnose::BatterySet`]).
+    pub fn predict(
+        &self,
+        f: &FlightRecord,
+        battery: &LearnedBattery,
+        p: &EffectParams,
+        stride: usize,
+    ) -> Prediction {
         let cells = f64::from(f.info.cells.max(1));
         let fade = p.get(Effect::CapacityFade);
         // The pack's nominal behaviour with temperature is part of the baseline.
         let (r_temp, c_temp) = crate::lipo::temperature_factors(f.info.ambient_temperature_c);
         let capacity_ah =
-            f.info.battery_energy_wh / (cells * mean_ocv_cell_v()) * c_temp * (1.0 - fade);
-        let r = cells * NOMINAL_CELL_RESISTANCE_OHM * r_temp + p.get(Effect::InternalResistance);
+            f.info.battery_energy_wh / (cells * battery.mean_ocv_cell_v()) * c_temp * (1.0 - fade);
+        let r1 = cells * battery.rc_resistance_cell_ohm * r_temp;
+        let tau = battery.rc_time_constant_s;
+        let r = cells * battery.series_resistance_cell_ohm.max(0.0) * r_temp
+            + p.get(Effect::InternalResistance);
         let r = r.max(0.0);
         let peukert = p.get(Effect::Peukert);
         let one_c_a = capacity_ah.max(1e-9);
@@ -277,7 +310,14 @@ impl<C: PowerCurve> Model<'_, C> {
         };
         let stride = stride.max(1);
         let n = f.time_s.len();
-        let mut soc = 1.0 - f.initial_discharge(r);
+        let airborne_a = match f.voltage_v.first() {
+            Some(v) if !f.time_s.is_empty() => {
+                self.power_at(f, p, 0, rotor_w, vz.as_deref(), ceiling) / v.max(1e-3)
+            }
+            _ => 0.0,
+        };
+        let mut soc = f.initial_soc(battery, r, airborne_a);
+        let mut v1 = 0.0;
         let mut out = Prediction {
             index: Vec::with_capacity(n / stride + 2),
             voltage_v: Vec::with_capacity(n / stride + 2),
@@ -288,10 +328,18 @@ impl<C: PowerCurve> Model<'_, C> {
         };
         let cutoff = f.info.cutoff_voltage_v;
         // Electrical state at a power draw and state of charge.
-        let state = |w: f64, soc: f64| -> Option<(f64, f64)> {
-            let e = cells * ocv_cell_v(soc);
+        let state = |w: f64, soc: f64, v1: f64| -> Option<(f64, f64)> {
+            let e = cells * battery.ocv_cell_v(soc) - v1;
             let i = current_for_power(e, r, w)?;
             Some((i, e - i * r))
+        };
+        let relax = |v1: f64, i: f64, dt: f64| {
+            if r1 > 0.0 && tau > 0.0 {
+                let a = (-dt / tau).exp();
+                a * v1 + (1.0 - a) * i * r1
+            } else {
+                0.0
+            }
         };
         // Charge drawn per second at current i (Peukert: effective current I·(I/1C)^(k−1)).
         let drain = |i: f64| {
@@ -306,7 +354,7 @@ impl<C: PowerCurve> Model<'_, C> {
         while k < n {
             let next = (k + stride).min(n);
             let w = self.power_at(f, p, k, rotor_w, vz.as_deref(), ceiling);
-            let st = state(w, soc);
+            let st = state(w, soc, v1);
             let (i, v) = match st {
                 Some(s) if s.1 >= cutoff && soc > 0.0 => s,
                 _ => {
@@ -326,8 +374,9 @@ impl<C: PowerCurve> Model<'_, C> {
             };
             // Midpoint step: the charge over [k, next) at the power of sample k.
             let mid = soc - 0.5 * drain(i) * dt;
-            let i_mid = state(w, mid).map_or(i, |s| s.0);
+            let i_mid = state(w, mid, v1).map_or(i, |s| s.0);
             soc -= drain(i_mid) * dt;
+            v1 = relax(v1, i_mid, dt);
             k = next;
         }
         if out.endurance_s.is_nan() {
@@ -338,9 +387,10 @@ impl<C: PowerCurve> Model<'_, C> {
             let dt = 1.0;
             let limit = t + 48.0 * 3600.0;
             loop {
-                match state(w, soc) {
+                match state(w, soc, v1) {
                     Some((i, v)) if v >= cutoff && soc > 0.0 && t < limit => {
                         soc -= drain(i) * dt;
+                        v1 = relax(v1, i, dt);
                         t += dt;
                     }
                     _ => break,
@@ -352,11 +402,34 @@ impl<C: PowerCurve> Model<'_, C> {
     }
 }
 
+/// The series resistance per cell the baseline uses. With logged current: the learned one up
+/// to the nominal ([`NOMINAL_CELL_RESISTANCE_OHM`]) — a healthy pack has at most the nominal
+/// resistance, so a learned resistance below it is simply the pack's, and resistance above it
+/// stays a diagnosable effect (`internal_resistance`, its parameter the extra over the nominal)
+/// instead of being absorbed into the battery. Without current (the current is the power
+/// model's), the resistance and the curve's level cannot be told apart, so the learned
+/// resistance is taken whole: `internal_resistance` then needs logged current.
+pub fn baseline_cell_resistance_ohm(battery: &LearnedBattery, current_logged: bool) -> f64 {
+    if current_logged {
+        battery
+            .series_resistance_cell_ohm
+            .clamp(0.0, NOMINAL_CELL_RESISTANCE_OHM)
+    } else {
+        battery.series_resistance_cell_ohm.max(0.0)
+    }
+}
+
 impl FlightRecord {
-    /// Fraction of the pack already used when the log starts, from the voltage of the first
+    /// State of charge when the log starts, on `battery`'s curve, from the voltage of the first
     /// samples before the rotors start, corrected for the sag of the avionics' current through
-    /// the pack resistance `resistance_ohm` (0 when the log starts airborne).
-    pub fn initial_discharge(&self, resistance_ohm: f64) -> f64 {
+    /// the pack resistance `resistance_ohm`. A log that starts airborne is read from its first
+    /// samples with the sag of their current (logged, else `airborne_current_a`).
+    pub fn initial_soc(
+        &self,
+        battery: &LearnedBattery,
+        resistance_ohm: f64,
+        airborne_current_a: f64,
+    ) -> f64 {
         let cells = f64::from(self.info.cells.max(1));
         let rest: Vec<f64> = self
             .phase
@@ -366,10 +439,18 @@ impl FlightRecord {
             .map(|(_, v)| *v)
             .collect();
         if rest.is_empty() {
-            return 0.0;
+            let head = self.voltage_v.len().min(5);
+            if head == 0 {
+                return 1.0;
+            }
+            let v = self.voltage_v[..head].iter().sum::<f64>() / head as f64;
+            let i = self.current_a.as_ref().map_or(airborne_current_a, |c| {
+                c[..head].iter().sum::<f64>() / head as f64
+            });
+            return battery.soc_for_ocv((v + i * resistance_ohm) / cells);
         }
         let v = rest.iter().sum::<f64>() / rest.len() as f64;
         let i = self.info.idle_power_w() / v.max(1e-3);
-        1.0 - crate::lipo::soc_for_ocv((v + i * resistance_ohm) / cells)
+        battery.soc_for_ocv((v + i * resistance_ohm) / cells)
     }
 }

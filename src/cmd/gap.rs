@@ -6,10 +6,12 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result, bail};
 use estimator::file::ParamsFile;
 use flightlog::FlightSet;
+use flightlog::PhaseSource;
 use gap::diagnose::{DiagnoseOptions, LevelErrors};
 use gap::flight::FlightRecord;
 use gap::logs::{
-    Baseline, ConstantPower, GapReport, default_split, record_from_log, run as run_gap,
+    Baseline, ConstantPower, GapReport, MIN_FLIGHTS_FOR_ATTRIBUTION, localise_only,
+    record_from_log, run as run_gap, split_flights,
 };
 
 use crate::output::{self, Table};
@@ -34,10 +36,35 @@ pub struct Args {
     /// Write plots here: held-out voltage over time and the residual by phase, before and after.
     #[arg(short, long, value_name = "DIR")]
     output: Option<PathBuf>,
+    /// A measured open-circuit curve of one cell (`soc,ocv_v` CSV) that overrides the curve the
+    /// diagnosis learns from the flights (the resistances are still learned).
+    #[arg(long, value_name = "CSV")]
+    battery_ocv_csv: Option<PathBuf>,
+    /// The packs' chemistry, when known: lipo, lihv, li_ion_nmc or li_ion_nca (only its prior is
+    /// used, held close; unknown, every prior is tried and a lost capacity may pass for a
+    /// chemistry whose knee comes earlier).
+    #[arg(long, value_name = "CHEMISTRY")]
+    chemistry: Option<String>,
+    /// Most effects combined in the verdict (1 to 8).
+    #[arg(long, default_value_t = 2)]
+    max_effects: usize,
 }
 
-/// How a flight's phases were obtained: (flight, "logged" / "inferred: …" / "none").
-type PhaseNote = (String, String);
+/// How a flight's phases were obtained.
+#[derive(serde::Serialize)]
+struct PhaseNote {
+    flight: String,
+    #[serde(skip)]
+    kind: PhaseKind,
+    how: String,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum PhaseKind {
+    Logged,
+    Inferred,
+    Missing,
+}
 
 fn read(
     paths: &[PathBuf],
@@ -59,24 +86,26 @@ fn read(
             skipped.push((s.path.display().to_string(), s.reason.to_string()));
         }
         for f in &set.flights {
-            phases.push((
-                f.name.clone(),
-                match &f.phase_source {
-                    flightlog::PhaseSource::Logged => "logged".to_owned(),
-                    flightlog::PhaseSource::Inferred { method, notes } => {
-                        let mut t = format!("inferred: {method}");
-                        for n in notes {
-                            t.push_str("; ");
-                            t.push_str(n);
-                        }
-                        t
+            let (kind, how) = match &f.phase_source {
+                PhaseSource::Logged => (PhaseKind::Logged, "logged".to_owned()),
+                PhaseSource::Inferred { method, notes } => {
+                    let mut t = method.to_string();
+                    for n in notes {
+                        t.push_str("; ");
+                        t.push_str(n);
                     }
-                    flightlog::PhaseSource::None => {
-                        "none: no phase, current or altitude; every sample taken as hover"
-                            .to_owned()
-                    }
-                },
-            ));
+                    (PhaseKind::Inferred, t)
+                }
+                PhaseSource::None => (
+                    PhaseKind::Missing,
+                    "none: no phase, current or altitude; every sample taken as hover".to_owned(),
+                ),
+            };
+            phases.push(PhaseNote {
+                flight: f.name.clone(),
+                kind,
+                how,
+            });
             match record_from_log(f) {
                 Ok(r) => out.push(r),
                 Err(e) => skipped.push((f.source.display().to_string(), e.to_string())),
@@ -92,14 +121,18 @@ struct Json<'a> {
     unexplained: bool,
     within_noise: bool,
     effects: Vec<serde_json::Value>,
+    headline: &'a gap::diagnose::HeadlineGap,
+    residual: &'a Option<gap::diagnose::Residual>,
+    rejected: &'a [gap::diagnose::Rejected],
+    batteries: &'a [gap::battery::BatteryFit],
     r#where: &'a gap::diagnose::Where,
-    baseline: serde_json::Value,
-    after: serde_json::Value,
+    baseline: &'a gap::diagnose::TrainHeld,
+    after: &'a gap::diagnose::TrainHeld,
     baseline_source: &'a str,
     estimated_hover_power_w: Option<f64>,
-    split: serde_json::Value,
+    split: &'a gap::diagnose::Split,
     split_rule: &'a str,
-    skipped: &'a [(String, String)],
+    skipped: Vec<serde_json::Value>,
     phase_sources: &'a [PhaseNote],
     candidates: &'a [gap::diagnose::Candidate],
 }
@@ -109,8 +142,8 @@ fn levels(e: &LevelErrors) -> String {
     if let Some(v) = e.endurance_pct {
         parts.push(format!("endurance {v:.2} %"));
     }
-    if let Some(v) = e.phase_power_pct {
-        parts.push(format!("phase power {v:.2} %"));
+    if let Some(v) = e.phase_energy_pct {
+        parts.push(format!("energy per phase {v:.2} %"));
     }
     if let Some(v) = e.voltage_rmse_v {
         parts.push(format!("voltage RMSE {v:.3} V"));
@@ -118,61 +151,156 @@ fn levels(e: &LevelErrors) -> String {
     parts.join(", ")
 }
 
+fn print_where(w: &gap::diagnose::Where) {
+    println!("where:");
+    if !w.by_phase.is_empty() {
+        let parts: Vec<String> = w
+            .by_phase
+            .iter()
+            .map(|p| format!("{} {:.0} %", p.phase.name(), p.share * 100.0))
+            .collect();
+        println!("  energy gap by phase: {}", parts.join(", "));
+    }
+    let parts: Vec<String> = w
+        .voltage_by_phase_v
+        .iter()
+        .map(|p| format!("{} {:+.3} V", p.phase.name(), p.residual_v))
+        .collect();
+    println!(
+        "  voltage residual by phase (measured − predicted): {}",
+        parts.join(", ")
+    );
+    let parts: Vec<String> = w
+        .by_state_of_charge
+        .iter()
+        .map(|t| {
+            format!(
+                "{} {:+.3} V ({:.0} %)",
+                t.part,
+                t.residual_v,
+                t.share * 100.0
+            )
+        })
+        .collect();
+    println!("  by state of charge: {}", parts.join(", "));
+    let mut cov: Vec<&gap::diagnose::CovariateCorrelation> = w.by_covariate.iter().collect();
+    cov.sort_by(|a, b| b.r2.total_cmp(&a.r2));
+    let parts: Vec<String> = cov
+        .iter()
+        .take(3)
+        .map(|c| format!("{} (r = {:+.2})", c.name, c.r))
+        .collect();
+    if !parts.is_empty() {
+        println!(
+            "  strongest covariates of the per-flight error: {}",
+            parts.join(", ")
+        );
+    }
+}
+
 /// Runs the subcommand.
 pub fn run(args: Args) -> Result<()> {
     let mut skipped = Vec::new();
     let mut phase_notes = Vec::new();
-    let mut train = read(&args.flights, &mut skipped, &mut phase_notes)?;
-    let mut held = read(&args.holdout, &mut skipped, &mut phase_notes)?;
-    let rule = if args.holdout.is_empty() {
-        let names: Vec<String> = train.iter().map(|f| f.name.clone()).collect();
-        let mask = default_split(&names);
-        let all = std::mem::take(&mut train);
-        for (f, h) in all.into_iter().zip(mask) {
-            if h { held.push(f) } else { train.push(f) }
+    let flights = read(&args.flights, &mut skipped, &mut phase_notes)?;
+    let given = read(&args.holdout, &mut skipped, &mut phase_notes)?;
+    // Why files were left out comes first, whatever happens next.
+    if !args.json {
+        for (path, why) in &skipped {
+            eprintln!("skipped {path}: {why}");
         }
-        "every third flight by name held out (no --holdout given)"
-    } else {
-        "--holdout"
+    }
+    let mut opts = DiagnoseOptions {
+        max_effects: args.max_effects,
+        ..DiagnoseOptions::default()
     };
+    if let Some(p) = &args.battery_ocv_csv {
+        let text =
+            std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+        opts.measured_ocv = Some(
+            gap::battery::LearnedBattery::from_ocv_csv(&text)
+                .with_context(|| format!("{}", p.display()))?,
+        );
+    }
+    if let Some(c) = &args.chemistry {
+        opts.chemistry = Some(
+            gap::battery::Chemistry::PRIORS
+                .into_iter()
+                .find(|k| k.name() == c.as_str())
+                .with_context(|| {
+                    format!("--chemistry {c}: expected lipo, lihv, li_ion_nmc or li_ion_nca")
+                })?,
+        );
+    }
+    let params = match &args.params {
+        Some(p) => Some(
+            ParamsFile::load(p)?
+                .to_params()
+                .with_context(|| format!("{} cannot drive the estimator", p.display()))?,
+        ),
+        None => None,
+    };
+    let total = flights.len() + given.len();
+    if total == 0 {
+        bail!("no readable flights (every file was skipped; reasons above)");
+    }
+    if total < MIN_FLIGHTS_FOR_ATTRIBUTION {
+        // Too few flights to attribute: say where the gap sits, and what more is needed.
+        let all: Vec<FlightRecord> = flights.into_iter().chain(given).collect();
+        let refs: Vec<&FlightRecord> = all.iter().collect();
+        let rep = match &params {
+            Some(p) => localise_only(Baseline::Rig(&p.curve, p.rotor_count), &refs, &opts)?,
+            None => localise_only::<ConstantPower>(Baseline::FromTraining, &refs, &opts)?,
+        };
+        if args.json {
+            return output::print_json(&rep);
+        }
+        println!("baseline: {}", rep.baseline_source);
+        if let Some(w) = rep.estimated_hover_power_w {
+            println!("  estimated hover power: {w:.2} W");
+        }
+        println!("gap against the baseline: {}", levels(&rep.errors));
+        print_where(&rep.r#where);
+        println!();
+        println!(
+            "attribution needs at least {MIN_FLIGHTS_FOR_ATTRIBUTION} flights (2 to fit on, 1 held out to check on): {} read, {} more needed",
+            rep.flights, rep.more_flights_needed
+        );
+        return Ok(());
+    }
+    let (train, held, rule) = split_flights(flights, given);
+    let rule = rule.describe();
     if train.len() < 2 {
         bail!(
-            "{} training flights: the diagnosis needs at least 2 (and held-out flights to check on)",
+            "{} training flights: the diagnosis needs at least 2 (give fewer --holdout flights)",
             train.len()
         );
     }
     let tr: Vec<&FlightRecord> = train.iter().collect();
     let he: Vec<&FlightRecord> = held.iter().collect();
-    let opts = DiagnoseOptions::default();
-    let report: GapReport = match &args.params {
-        Some(p) => {
-            let file = ParamsFile::load(p)?;
-            let params = file
-                .to_params()
-                .with_context(|| format!("{} cannot drive the estimator", p.display()))?;
-            run_gap(
-                Baseline::Rig(&params.curve, params.rotor_count),
-                &tr,
-                &he,
-                &opts,
-            )?
-        }
+    let report: GapReport = match &params {
+        Some(params) => run_gap(
+            Baseline::Rig(&params.curve, params.rotor_count),
+            &tr,
+            &he,
+            &opts,
+        )?,
         None => run_gap::<ConstantPower>(Baseline::FromTraining, &tr, &he, &opts)?,
     };
     let d = &report.diagnosis;
+    let verdict_words = if d.verdict.is_empty() {
+        "no effect (none selected)".to_owned()
+    } else {
+        d.verdict
+            .iter()
+            .map(|e| e.name())
+            .collect::<Vec<_>>()
+            .join(" + ")
+    };
     let mut written = Vec::new();
     if let Some(dir) = &args.output {
-        let verdict = if d.verdict.is_empty() {
-            "no effect (none selected)".to_owned()
-        } else {
-            d.verdict
-                .iter()
-                .map(|e| e.name())
-                .collect::<Vec<_>>()
-                .join(" + ")
-        };
         let voltage = reports::gap::GapVoltageFigure {
-            verdict: verdict.clone(),
+            verdict: verdict_words.clone(),
             flights: report
                 .heldout_series
                 .iter()
@@ -185,29 +313,12 @@ pub fn run(args: Args) -> Result<()> {
                 })
                 .collect(),
         };
-        let phase_mean = |res: &[gap::diagnose::FlightResiduals], p: gap::flight::Phase| {
-            let v: Vec<f64> = res
-                .iter()
-                .flat_map(|r| {
-                    r.voltage_by_phase_v
-                        .iter()
-                        .filter(|(q, _)| *q == p)
-                        .map(|(_, v)| *v)
-                })
-                .collect();
-            (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
-        };
         let phases = reports::gap::GapPhaseFigure {
-            verdict,
-            phases: gap::flight::Phase::ALL
+            verdict: verdict_words.clone(),
+            phases: d
+                .heldout_voltage_by_phase()
                 .into_iter()
-                .filter_map(|p| {
-                    Some((
-                        p.name().to_owned(),
-                        phase_mean(&d.heldout_baseline, p)?,
-                        phase_mean(&d.heldout_after, p)?,
-                    ))
-                })
+                .map(|p| (p.phase.name().to_owned(), p.before_v, p.after_v))
                 .collect(),
         };
         written = reports::gap::write_gap_figures(&voltage, &phases, dir)?;
@@ -219,7 +330,7 @@ pub fn run(args: Args) -> Result<()> {
             .map(|e| {
                 serde_json::json!({
                     "effect": e.effect.name(),
-                    "parameters": e.parameters.iter().map(|(k, v)| (k.clone(), *v)).collect::<std::collections::BTreeMap<_, _>>(),
+                    "parameters": {e.parameter.name.clone(): e.parameter.value},
                     "std_error": e.std_error,
                     "share_of_gap": e.share_of_gap,
                     "heldout_error_before_pct": e.heldout_error_before_pct,
@@ -232,14 +343,21 @@ pub fn run(args: Args) -> Result<()> {
             unexplained: d.unexplained,
             within_noise: d.within_noise,
             effects,
+            headline: &d.headline,
+            residual: &d.residual,
+            rejected: &d.rejected,
+            batteries: &d.batteries,
             r#where: &d.r#where,
-            baseline: serde_json::json!({"training": d.baseline.0, "heldout": d.baseline.1}),
-            after: serde_json::json!({"training": d.after.0, "heldout": d.after.1}),
+            baseline: &d.baseline,
+            after: &d.after,
             baseline_source: &report.baseline_source,
             estimated_hover_power_w: report.estimated_hover_power_w,
-            split: serde_json::json!({"train": d.split.0, "heldout": d.split.1}),
+            split: &d.split,
             split_rule: rule,
-            skipped: &skipped,
+            skipped: skipped
+                .iter()
+                .map(|(file, reason)| serde_json::json!({"file": file, "reason": reason}))
+                .collect(),
             phase_sources: &phase_notes,
             candidates: &d.candidates,
         });
@@ -250,27 +368,25 @@ pub fn run(args: Args) -> Result<()> {
     }
     println!(
         "split ({rule}): {} training, {} held-out: {}",
-        d.split.0.len(),
-        d.split.1.len(),
-        d.split.1.join(", ")
+        d.split.train.len(),
+        d.split.heldout.len(),
+        d.split.heldout.join(", ")
     );
-    for (path, why) in &skipped {
-        println!("skipped {path}: {why}");
-    }
     let inferred: Vec<&PhaseNote> = phase_notes
         .iter()
-        .filter(|(_, n)| n.starts_with("inferred"))
+        .filter(|n| n.kind == PhaseKind::Inferred)
         .collect();
     let missing = phase_notes
         .iter()
-        .filter(|(_, n)| n.starts_with("none"))
+        .filter(|n| n.kind == PhaseKind::Missing)
         .count();
-    if let Some((name, how)) = inferred.first() {
+    if let Some(first) = inferred.first() {
         println!(
-            "phases inferred for {} of {} flights (first, {name}: {})",
+            "phases inferred for {} of {} flights (first, {}: {})",
             inferred.len(),
             phase_notes.len(),
-            how.trim_start_matches("inferred: ")
+            first.flight,
+            first.how
         );
     }
     if missing > 0 {
@@ -278,49 +394,32 @@ pub fn run(args: Args) -> Result<()> {
             "{missing} flights have no phases, current or altitude: every sample is taken as hover"
         );
     }
-    println!();
-    println!("gap before, held-out: {}", levels(&d.baseline.1));
-    println!("where:");
-    if !d.r#where.by_phase.is_empty() {
-        let parts: Vec<String> = d
-            .r#where
-            .by_phase
-            .iter()
-            .map(|(p, s)| format!("{} {:.0} %", p.name(), s * 100.0))
-            .collect();
-        println!("  energy gap by phase: {}", parts.join(", "));
-    }
-    let parts: Vec<String> = d
-        .r#where
-        .voltage_by_phase_v
-        .iter()
-        .map(|(p, v)| format!("{} {:+.3} V", p.name(), v))
-        .collect();
-    println!(
-        "  voltage residual by phase (measured − predicted): {}",
-        parts.join(", ")
-    );
-    let parts: Vec<String> = d
-        .r#where
-        .by_state_of_charge
-        .iter()
-        .map(|(n, v, s)| format!("{n} {v:+.3} V ({:.0} %)", s * 100.0))
-        .collect();
-    println!("  by state of charge: {}", parts.join(", "));
-    let mut cov: Vec<&(String, f64, f64)> = d.r#where.by_covariate.iter().collect();
-    cov.sort_by(|a, b| b.2.total_cmp(&a.2));
-    let parts: Vec<String> = cov
-        .iter()
-        .take(3)
-        .map(|(n, r, _)| format!("{n} (r = {r:+.2})"))
-        .collect();
-    if !parts.is_empty() {
+    for b in &d.batteries {
+        let lb = &b.battery;
+        let knee = lb.knee().map_or("no knee".to_owned(), |(s, v)| {
+            format!("knee at {:.0} % charge ({v:.2} V per cell)", s * 100.0)
+        });
         println!(
-            "  strongest covariates of the per-flight error: {}",
-            parts.join(", ")
+            "battery {} learned from {} flights ({} prior, current {}): series {:.1} mΩ, RC {:.1} mΩ × {:.0} s per cell, {knee}; fit RMSE {:.3} V per cell — {}",
+            b.battery_type,
+            b.flights,
+            b.prior.name(),
+            match b.current {
+                gap::battery::CurrentSource::Logged => "logged",
+                gap::battery::CurrentSource::PowerModel => "from the power model",
+            },
+            lb.series_resistance_cell_ohm * 1000.0,
+            lb.rc_resistance_cell_ohm * 1000.0,
+            lb.rc_time_constant_s,
+            b.rmse_cell_v,
+            b.note
         );
     }
     println!();
+    println!("gap before, held-out: {}", levels(&d.baseline.heldout));
+    print_where(&d.r#where);
+    println!();
+    let unit = d.headline.level.unit();
     if d.within_noise {
         println!("verdict: none — the gap is within noise");
     } else if d.verdict.is_empty() {
@@ -330,30 +429,43 @@ pub fn run(args: Args) -> Result<()> {
     } else {
         let mut t = Table::new(&["effect", "parameter", "share of gap closed"]);
         for e in &d.effects {
-            let (k, v) = &e.parameters[0];
             t.row(vec![
                 e.effect.name().into(),
-                format!("{k} = {v:.4} ± {:.4}", e.std_error),
+                format!(
+                    "{} = {:.4} ± {:.4}",
+                    e.parameter.name, e.parameter.value, e.std_error
+                ),
                 format!("{:.0} %", e.share_of_gap * 100.0),
             ]);
         }
-        println!(
-            "verdict: {}",
-            d.verdict
-                .iter()
-                .map(|e| e.name())
-                .collect::<Vec<_>>()
-                .join(" + ")
-        );
+        println!("verdict: {verdict_words}");
         print!("{}", t.render());
+        println!(
+            "held-out {} gap: {:.3} {unit} before, {:.3} {unit} after",
+            match d.headline.level {
+                gap::diagnose::Level::Endurance => "endurance",
+                gap::diagnose::Level::PhaseEnergy => "phase-energy",
+                gap::diagnose::Level::Voltage => "voltage",
+            },
+            d.headline.before,
+            d.headline.after
+        );
         if d.unexplained {
             println!(
                 "…but a significant gap remains that these effects do not explain (unexplained)"
             );
         }
     }
+    for r in &d.rejected {
+        println!("dropped {}: {}", r.effect.name(), r.reason);
+    }
+    if let Some(r) = &d.residual {
+        if d.unexplained || d.verdict.is_empty() {
+            println!("residual: {}", r.description);
+        }
+    }
     println!();
-    println!("gap after, held-out:  {}", levels(&d.after.1));
+    println!("gap after, held-out:  {}", levels(&d.after.heldout));
     for w in written {
         println!("wrote {}", w.display());
     }

@@ -1,0 +1,845 @@
+//! The battery the diagnosis learns from the flights: open-circuit voltage against state of
+//! charge (monotone, smooth), series resistance and one RC pair, per battery type.
+//!
+//! Real users fly packs whose curve nobody measured, so the diagnosis does not assume one. For
+//! every battery type among the training flights (same `battery_id`, else same cell count and
+//! rated energy) it identifies a [`LearnedBattery`] from the flights themselves, before the
+//! effect search:
+//!
+//! - **State of charge by charge counting**: from the logged current or, without current (the
+//!   Crazyflie), from the current the power model draws at the measured voltage (`I = P / V`),
+//!   over the rated capacity (`battery_energy_wh` over the cells and the curve's mean voltage);
+//!   the start from the first samples' voltage.
+//! - **A regularised linear fit** of the per-cell terminal voltage
+//!   `v = OCV(s) − I·R₀ − R₁·x(τ)` (`x` the current through the RC pair's low-pass of time
+//!   constant τ): 21 open-circuit knots as deviations from a chemistry prior with a smoothness
+//!   penalty on their second differences and a pull towards the prior (σ 0.03 V when the
+//!   chemistry is given, 0.3 V when it is not), `R₀ ≥ 0`, `R₁ ≥ 0`, τ from a grid; the knots are then made monotone by isotonic
+//!   regression. Each chemistry prior is tried and the one fitting best is kept.
+//! - **Chemistry priors** ([`Chemistry`]) are built from measured electrode potentials copied
+//!   from PyBaMM (`gap/data/pybamm/`, BSD-3-Clause): LiPo and LiHV (LiCoO₂/graphite, Ai 2020),
+//!   Li-ion NMC (LG M50, Chen 2020) and NCA (Kim 2011). There is no LiFePO₄ prior (PyBaMM ships
+//!   no measured LiFePO₄ curve); give a measured curve for such a pack.
+//! - **A measured curve** ([`LearnedBattery::from_ocv_csv`], `soc,ocv_v` per cell) overrides
+//!   the prior: the knots are taken as given and only the resistances are learned.
+//!
+//! How much data: the knots are learned over the span of state of charge the flights cover;
+//! outside it the curve follows the prior's shape. Below a quarter of the charge
+//! ([`KNEE_FREE_SOC`]) the curve keeps the prior's shape, shifted with the curve above it: the
+//! voltage alone cannot tell where a pack's knee sits from a capacity it has lost, so the
+//! chemistry says where the knee is. With flights covering less than a quarter
+//! of the charge, or fewer than 200 voltage samples, the fit keeps the prior's shape and learns
+//! only an offset and the resistances ([`BatteryFit::note`] says so). The diagnosis's baseline
+//! takes the learned series resistance up to the nominal (5 mΩ per cell): resistance above it
+//! stays a diagnosable effect (`internal_resistance`) instead of vanishing into the battery; the
+//! learned value is reported either way.
+//!
+//! [`LearnedBattery`] is plain data of fixed size (`f64` fields and arrays), so it can be stored
+//! in a parameter file and read by a `no_std` in-flight estimator.
+
+use serde::Serialize;
+
+use crate::flight::FlightRecord;
+use crate::stats::{isotonic, solve};
+
+/// Open-circuit knots, at state of charge 0, 0.05, …, 1.
+pub const OCV_KNOTS: usize = 21;
+
+/// A pack's learned behaviour, per cell: plain `f64` data of fixed size.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct LearnedBattery {
+    /// Open-circuit voltage of one cell at state of charge `k / (OCV_KNOTS − 1)`, V; strictly
+    /// increasing. Between knots the curve is the monotone cubic (Fritsch–Carlson) through
+    /// them.
+    pub ocv_cell_v: [f64; OCV_KNOTS],
+    /// Series resistance of one cell, Ω.
+    pub series_resistance_cell_ohm: f64,
+    /// Resistance of the RC pair of one cell, Ω (0: no RC pair).
+    pub rc_resistance_cell_ohm: f64,
+    /// Time constant of the RC pair, s.
+    pub rc_time_constant_s: f64,
+}
+
+/// A chemistry prior.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Chemistry {
+    /// LiCoO₂/graphite, 4.20 V full (hobby LiPo).
+    Lipo,
+    /// LiCoO₂/graphite charged to 4.35 V (LiHV).
+    Lihv,
+    /// NMC811/graphite-SiOx (Li-ion, LG M50).
+    LiIonNmc,
+    /// NCA/graphite (Li-ion).
+    LiIonNca,
+    /// A curve the user measured.
+    Measured,
+}
+
+impl Chemistry {
+    /// The priors tried when the chemistry is not given.
+    pub const PRIORS: [Chemistry; 4] = [
+        Chemistry::Lipo,
+        Chemistry::Lihv,
+        Chemistry::LiIonNmc,
+        Chemistry::LiIonNca,
+    ];
+
+    /// Name as in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Chemistry::Lipo => "lipo",
+            Chemistry::Lihv => "lihv",
+            Chemistry::LiIonNmc => "li_ion_nmc",
+            Chemistry::LiIonNca => "li_ion_nca",
+            Chemistry::Measured => "measured",
+        }
+    }
+
+    /// Nominal series resistance of one cell, Ω (PX4's default estimate, 5 mΩ per cell, for
+    /// every chemistry: the pack's rating does not say more).
+    pub fn nominal_cell_resistance_ohm(self) -> f64 {
+        crate::model::NOMINAL_CELL_RESISTANCE_OHM
+    }
+
+    /// The prior battery: the chemistry's open-circuit curve, nominal resistance, no RC pair.
+    /// `None` for [`Chemistry::Measured`] (that curve comes from a file).
+    pub fn prior(self) -> Option<LearnedBattery> {
+        let lco = || parse_points(include_str!("../data/pybamm/lico2_ocp_Ai2020.csv"));
+        let gr_ai = || {
+            parse_points(include_str!(
+                "../data/pybamm/graphite_ocp_Enertech_Ai2020.csv"
+            ))
+        };
+        let gr_chen = || {
+            parse_points(include_str!(
+                "../data/pybamm/graphite_LGM50_ocp_Chen2020.csv"
+            ))
+        };
+        // Stoichiometry windows (empty → full) of each electrode.
+        let knots = match self {
+            // Ai 2020's cell at 100 %: graphite 0.84, LiCoO₂ 0.435; empty where LiCoO₂ is
+            // nearly fully lithiated (0.99) and graphite nearly empty (0.01).
+            Chemistry::Lipo => full_cell(&lco(), &gr_ai(), (0.99, 0.435), (0.01, 0.84)),
+            Chemistry::Lihv => {
+                // The same cell charged further: the LiCoO₂ window extended until 4.35 V.
+                let (p, n) = (lco(), gr_ai());
+                let top = |y: f64| interp(&p, y) - interp(&n, 0.84) - 4.35;
+                let (mut a, mut b) = (0.4, 0.435);
+                for _ in 0..60 {
+                    let m = 0.5 * (a + b);
+                    if top(m) > 0.0 { a = m } else { b = m }
+                }
+                full_cell(&p, &n, (0.99, 0.5 * (a + b)), (0.01, 0.84))
+            }
+            // Chen 2020's published windows of the LG M50.
+            Chemistry::LiIonNmc => full_cell(
+                &parse_points(include_str!("../data/pybamm/nmc_LGM50_ocp_Chen2020.csv")),
+                &gr_chen(),
+                (0.9084, 0.2661),
+                (0.0279, 0.9014),
+            ),
+            Chemistry::LiIonNca => full_cell(
+                &parse_points(include_str!("../data/pybamm/nca_ocp_Kim2011_data.csv")),
+                &gr_chen(),
+                (0.99, 0.375),
+                (0.0279, 0.9014),
+            ),
+            Chemistry::Measured => return None,
+        };
+        Some(LearnedBattery {
+            ocv_cell_v: strictly_increasing(knots),
+            series_resistance_cell_ohm: self.nominal_cell_resistance_ohm(),
+            rc_resistance_cell_ohm: 0.0,
+            rc_time_constant_s: 0.0,
+        })
+    }
+}
+
+/// What can be wrong with a measured open-circuit curve.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum OcvCsvError {
+    /// A line is not two numbers.
+    #[error("line {line}: expected `soc,ocv_v` (two numbers), found {text:?}")]
+    Line {
+        /// 1-based line.
+        line: usize,
+        /// The line.
+        text: String,
+    },
+    /// A value is out of range.
+    #[error("line {line}: {what}")]
+    Range {
+        /// 1-based line.
+        line: usize,
+        /// What is wrong.
+        what: String,
+    },
+    /// Too little of the curve.
+    #[error("{0}")]
+    Coverage(String),
+}
+
+impl LearnedBattery {
+    /// The LiPo prior (see [`Chemistry::prior`]).
+    pub fn lipo() -> Self {
+        Chemistry::Lipo
+            .prior()
+            .unwrap_or_else(|| unreachable!("LiPo has a prior"))
+    }
+
+    /// Reads a measured open-circuit curve, `soc,ocv_v` per cell (a header line and `#`
+    /// comments allowed; state of charge 0..1 or 0..100 %). It must span at least 0.1–0.9 of the
+    /// charge and rise with it; it is resampled onto the knots (linear between points, held
+    /// flat beyond the ends).
+    pub fn from_ocv_csv(text: &str) -> Result<Self, OcvCsvError> {
+        let mut pts = Vec::new();
+        for (k, raw) in text.lines().enumerate() {
+            let line = raw.trim();
+            if line.is_empty() || line.starts_with('#') {
+                continue;
+            }
+            let f: Vec<&str> = line.split(',').map(str::trim).collect();
+            let nums: Option<Vec<f64>> = (f.len() == 2)
+                .then(|| f.iter().map(|s| s.parse::<f64>().ok()).collect())
+                .flatten();
+            match nums {
+                Some(v) => {
+                    if !v.iter().all(|x| x.is_finite()) || !(0.5..=5.5).contains(&v[1]) {
+                        return Err(OcvCsvError::Range {
+                            line: k + 1,
+                            what: format!(
+                                "open-circuit voltage {} V per cell is not plausible (0.5–5.5 V)",
+                                v[1]
+                            ),
+                        });
+                    }
+                    pts.push((v[0], v[1]));
+                }
+                None if pts.is_empty() && k == 0 => {} // header
+                None => {
+                    return Err(OcvCsvError::Line {
+                        line: k + 1,
+                        text: line.to_owned(),
+                    });
+                }
+            }
+        }
+        if pts.iter().any(|p| p.0 > 1.0 + 1e-9) {
+            for p in &mut pts {
+                p.0 /= 100.0;
+            }
+        }
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let (lo, hi) = match (pts.first(), pts.last()) {
+            (Some(a), Some(b)) => (a.0, b.0),
+            _ => return Err(OcvCsvError::Coverage("no points".into())),
+        };
+        if lo > 0.1 || hi < 0.9 {
+            return Err(OcvCsvError::Coverage(format!(
+                "the curve spans state of charge {lo:.2}–{hi:.2}; it must cover at least 0.10–0.90"
+            )));
+        }
+        if pts.last().map(|p| p.1) <= pts.first().map(|p| p.1) {
+            return Err(OcvCsvError::Coverage(
+                "the voltage does not rise with the state of charge".into(),
+            ));
+        }
+        let mut knots = [0.0; OCV_KNOTS];
+        for (k, slot) in knots.iter_mut().enumerate() {
+            *slot = interp(&pts, k as f64 / (OCV_KNOTS - 1) as f64);
+        }
+        let w = [1.0; OCV_KNOTS];
+        let iso = isotonic(&knots, &w);
+        knots.copy_from_slice(&iso);
+        Ok(Self {
+            ocv_cell_v: strictly_increasing(knots),
+            series_resistance_cell_ohm: Chemistry::Measured.nominal_cell_resistance_ohm(),
+            rc_resistance_cell_ohm: 0.0,
+            rc_time_constant_s: 0.0,
+        })
+    }
+
+    /// Open-circuit voltage of one cell at state of charge `soc` (clamped to 0..1), V.
+    pub fn ocv_cell_v(&self, soc: f64) -> f64 {
+        let k = &self.ocv_cell_v;
+        let n = OCV_KNOTS - 1;
+        let x = soc.clamp(0.0, 1.0) * n as f64;
+        let i = (x.floor() as usize).min(n - 1);
+        let t = x - i as f64;
+        // Fritsch–Carlson slopes (per knot interval).
+        let d = |j: usize| k[j + 1] - k[j];
+        let slope = |j: usize| -> f64 {
+            if j == 0 {
+                return d(0);
+            }
+            if j == n {
+                return d(n - 1);
+            }
+            let (a, b) = (d(j - 1), d(j));
+            if a * b <= 0.0 {
+                0.0
+            } else {
+                // Harmonic mean keeps the interpolant monotone.
+                2.0 * a * b / (a + b)
+            }
+        };
+        let (m0, m1) = (slope(i), slope(i + 1));
+        let (y0, y1) = (k[i], k[i + 1]);
+        let (t2, t3) = (t * t, t * t * t);
+        (2.0 * t3 - 3.0 * t2 + 1.0) * y0
+            + (t3 - 2.0 * t2 + t) * m0
+            + (-2.0 * t3 + 3.0 * t2) * y1
+            + (t3 - t2) * m1
+    }
+
+    /// State of charge whose open-circuit voltage is `v` per cell (inverse of
+    /// [`Self::ocv_cell_v`], clamped to 0..1).
+    pub fn soc_for_ocv(&self, v: f64) -> f64 {
+        if v <= self.ocv_cell_v[0] {
+            return 0.0;
+        }
+        if v >= self.ocv_cell_v[OCV_KNOTS - 1] {
+            return 1.0;
+        }
+        let (mut a, mut b) = (0.0, 1.0);
+        for _ in 0..50 {
+            let m = 0.5 * (a + b);
+            if self.ocv_cell_v(m) < v { a = m } else { b = m }
+        }
+        0.5 * (a + b)
+    }
+
+    /// Mean open-circuit voltage over a full discharge, V per cell: a cell's stored energy is
+    /// its charge times this.
+    pub fn mean_ocv_cell_v(&self) -> f64 {
+        let n = 200;
+        (0..n)
+            .map(|k| self.ocv_cell_v((k as f64 + 0.5) / n as f64))
+            .sum::<f64>()
+            / n as f64
+    }
+
+    /// The state of charge where the curve bends down at the end of the discharge (the
+    /// "knee"): the largest charge below half at which the curve's slope is twice its median
+    /// slope over 0.2–0.8, and the open-circuit voltage there. `None` when the curve has no
+    /// such bend.
+    pub fn knee(&self) -> Option<(f64, f64)> {
+        let slope = |s: f64| (self.ocv_cell_v(s + 0.005) - self.ocv_cell_v(s - 0.005)) / 0.01;
+        let mid: Vec<f64> = (20..=80).map(|k| slope(f64::from(k) / 100.0)).collect();
+        let m = crate::stats::median(&mid)?;
+        (1..50)
+            .rev()
+            .map(|k| f64::from(k) / 100.0)
+            .find(|&s| {
+                slope(s) > 2.0 * m && (1..=5).all(|j| slope(s - 0.01 * f64::from(j)) > 2.0 * m)
+            })
+            .map(|s| (s, self.ocv_cell_v(s)))
+    }
+}
+
+fn strictly_increasing(mut k: [f64; OCV_KNOTS]) -> [f64; OCV_KNOTS] {
+    for j in 1..OCV_KNOTS {
+        if k[j] < k[j - 1] + 1e-4 {
+            k[j] = k[j - 1] + 1e-4;
+        }
+    }
+    k
+}
+
+fn parse_points(text: &str) -> Vec<(f64, f64)> {
+    let mut pts: Vec<(f64, f64)> = text
+        .lines()
+        .filter_map(|l| {
+            let mut it = l.split(',').map(|s| s.trim().parse::<f64>());
+            match (it.next(), it.next()) {
+                (Some(Ok(a)), Some(Ok(b))) => Some((a, b)),
+                _ => None,
+            }
+        })
+        .collect();
+    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    pts
+}
+
+/// Linear interpolation in sorted points, held flat beyond the ends.
+fn interp(pts: &[(f64, f64)], x: f64) -> f64 {
+    let i = pts.partition_point(|p| p.0 < x);
+    if i == 0 {
+        return pts.first().map_or(f64::NAN, |p| p.1);
+    }
+    if i >= pts.len() {
+        return pts.last().map_or(f64::NAN, |p| p.1);
+    }
+    let ((x0, y0), (x1, y1)) = (pts[i - 1], pts[i]);
+    if x1 > x0 {
+        y0 + (y1 - y0) * (x - x0) / (x1 - x0)
+    } else {
+        y1
+    }
+}
+
+/// A full cell's open-circuit curve from its electrodes' potentials: positive minus negative,
+/// each at its stoichiometry, moving linearly between the empty and the full window ends.
+fn full_cell(
+    pos: &[(f64, f64)],
+    neg: &[(f64, f64)],
+    pos_window: (f64, f64),
+    neg_window: (f64, f64),
+) -> [f64; OCV_KNOTS] {
+    let mut k = [0.0; OCV_KNOTS];
+    for (j, slot) in k.iter_mut().enumerate() {
+        let s = j as f64 / (OCV_KNOTS - 1) as f64;
+        let y = pos_window.0 + s * (pos_window.1 - pos_window.0);
+        let x = neg_window.0 + s * (neg_window.1 - neg_window.0);
+        *slot = interp(pos, y) - interp(neg, x);
+    }
+    k
+}
+
+/// Where a flight's current comes from in the battery fit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CurrentSource {
+    /// Logged.
+    Logged,
+    /// The power model's draw at the measured voltage.
+    PowerModel,
+}
+
+/// One flight prepared for the battery fit: its samples and the current through the pack.
+#[derive(Debug, Clone)]
+pub struct BatteryData<'a> {
+    /// The flight.
+    pub flight: &'a FlightRecord,
+    /// Current at every sample, A.
+    pub current_a: Vec<f64>,
+    /// Where it came from.
+    pub source: CurrentSource,
+}
+
+/// A learned battery with what it was learned from.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct BatteryFit {
+    /// The battery type: `battery_id`, else cells and rated energy.
+    pub battery_type: String,
+    /// The learned battery.
+    pub battery: LearnedBattery,
+    /// The prior it started from.
+    pub prior: Chemistry,
+    /// Training flights it was learned from.
+    pub flights: usize,
+    /// Voltage samples used.
+    pub samples: usize,
+    /// State of charge covered by the flights (lowest, highest).
+    pub soc_covered: (f64, f64),
+    /// RMS of the fit's voltage residual on the training flights, V per cell.
+    pub rmse_cell_v: f64,
+    /// Where the current came from (logged on all flights, or the power model on some).
+    pub current: CurrentSource,
+    /// What the fit could and could not learn from these data.
+    pub note: String,
+}
+
+/// Below this state of charge the learned curve keeps its prior's shape (shifted with the curve
+/// above it).
+pub const KNEE_FREE_SOC: f64 = 0.25;
+const KNEE_KNOT: usize = 5;
+
+/// Fewest voltage samples, and least span of charge, for the knots to be learned.
+pub const MIN_SAMPLES: usize = 200;
+/// See [`MIN_SAMPLES`].
+pub const MIN_SOC_SPAN: f64 = 0.25;
+
+/// The battery type of a flight: its `battery_id`, else its cells and rated energy.
+pub fn battery_type(f: &FlightRecord) -> String {
+    match &f.info.battery_id {
+        Some(id) => id.clone(),
+        None => format!("{}S {:.1} Wh", f.info.cells, f.info.battery_energy_wh),
+    }
+}
+
+struct Row {
+    soc: f64,
+    y: f64,
+    /// Current times the temperature factor of the resistances (so the fitted resistances are
+    /// at the reference temperature).
+    i: f64,
+    x_by_tau: Vec<f64>,
+    w: f64,
+}
+
+/// Time constants tried for the RC pair, s.
+const TAUS_S: [f64; 5] = [3.0, 10.0, 30.0, 100.0, 300.0];
+
+fn rows_of(data: &[BatteryData<'_>], b: &LearnedBattery) -> Vec<Row> {
+    let mut rows = Vec::new();
+    for d in data {
+        let f = d.flight;
+        let n = f.time_s.len();
+        if n < 2 {
+            continue;
+        }
+        let cells = f64::from(f.info.cells.max(1));
+        // The pack's behaviour with temperature is the baseline's, as in the prediction.
+        let (r_temp, c_temp) = crate::lipo::temperature_factors(f.info.ambient_temperature_c);
+        let capacity_ah = f.info.battery_energy_wh / (cells * b.mean_ocv_cell_v()) * c_temp;
+        if !(capacity_ah.is_finite() && capacity_ah > 0.0) {
+            continue;
+        }
+        // Start: as the prediction reads it (rest voltage, or the first samples with their sag).
+        let head = n.min(5);
+        let i0 = d.current_a[..head].iter().sum::<f64>() / head as f64;
+        let s0 = f.initial_soc(b, cells * b.series_resistance_cell_ohm * r_temp, i0);
+        let stride = (n / 300).max(1);
+        let per_sample_w = 40.0 / (n / stride).max(1) as f64;
+        let mut q_ah = 0.0;
+        let mut x: Vec<f64> = vec![d.current_a[0]; TAUS_S.len()];
+        for j in 0..n {
+            if j > 0 {
+                let dt = (f.time_s[j] - f.time_s[j - 1]).max(0.0);
+                let ia = 0.5 * (d.current_a[j] + d.current_a[j - 1]);
+                q_ah += ia * dt / 3600.0;
+                for (xk, tau) in x.iter_mut().zip(TAUS_S) {
+                    let a = (-dt / tau).exp();
+                    *xk = a * *xk + (1.0 - a) * d.current_a[j];
+                }
+            }
+            if j % stride == 0 && f.voltage_v[j].is_finite() && d.current_a[j].is_finite() {
+                rows.push(Row {
+                    soc: s0 - q_ah / capacity_ah,
+                    y: f.voltage_v[j] / cells,
+                    i: d.current_a[j] * r_temp,
+                    x_by_tau: x.iter().map(|v| v * r_temp).collect(),
+                    w: per_sample_w,
+                });
+            }
+        }
+    }
+    rows
+}
+
+/// Linear-interpolation weights of a state of charge on the knots: (left knot, weight of the
+/// right one).
+fn hat(soc: f64) -> (usize, f64) {
+    let n = OCV_KNOTS - 1;
+    let x = soc.clamp(0.0, 1.0) * n as f64;
+    let i = (x.floor() as usize).min(n - 1);
+    (i, x - i as f64)
+}
+
+/// One regularised fit for a prior and a time constant (`None`: no RC pair). Returns the
+/// battery and the penalised objective.
+fn fit_once(
+    rows: &[Row],
+    prior: &LearnedBattery,
+    tau: Option<usize>,
+    learn_shape: bool,
+    prior_sigma_v: f64,
+) -> Option<(LearnedBattery, f64, f64)> {
+    // Unknowns: knot deviations (or one offset), r0, r1.
+    let nk = if learn_shape { OCV_KNOTS } else { 1 };
+    let has_rc = tau.is_some();
+    let mut free_r0 = true;
+    let mut free_r1 = has_rc;
+    for _ in 0..3 {
+        let nr = usize::from(free_r0) + usize::from(free_r1);
+        let m = nk + nr;
+        let mut ata = vec![0.0; m * m];
+        let mut atb = vec![0.0; m];
+        let sigma_v = 0.01;
+        for r in rows {
+            let mut a = vec![0.0; m];
+            if learn_shape {
+                let (i, t) = hat(r.soc);
+                a[i] = 1.0 - t;
+                a[i + 1] = t;
+            } else {
+                a[0] = 1.0;
+            }
+            let mut c = nk;
+            if free_r0 {
+                a[c] = -r.i;
+                c += 1;
+            }
+            if free_r1 {
+                a[c] = -tau.map_or(0.0, |t| r.x_by_tau[t]);
+            }
+            let y = r.y - prior.ocv_cell_v(r.soc);
+            let w = r.w / (sigma_v * sigma_v);
+            for p in 0..m {
+                if a[p] == 0.0 {
+                    continue;
+                }
+                atb[p] += w * a[p] * y;
+                for q in 0..m {
+                    ata[p * m + q] += w * a[p] * a[q];
+                }
+            }
+        }
+        // Pull towards the prior (σ `prior_sigma_v`) and smoothness (second differences,
+        // σ 0.03 V).
+        let l0 = 1.0 / (prior_sigma_v * prior_sigma_v);
+        let l2 = 1.0 / (0.03f64 * 0.03);
+        for k in 0..nk {
+            ata[k * m + k] += l0;
+        }
+        if learn_shape {
+            // The end of the discharge keeps the prior's shape (σ 0.05 V about the deviation at
+            // KNEE_FREE_SOC): where the knee sits cannot be told from a lost capacity by the
+            // voltage alone, so the chemistry says it, and a capacity lost stays the effect
+            // `capacity_fade` instead of a curve that dives early.
+            let lk = 1.0 / (0.05f64 * 0.05);
+            let anchor = KNEE_KNOT;
+            for k in 0..anchor {
+                for (p, cp) in [(k, 1.0), (anchor, -1.0)] {
+                    for (q, cq) in [(k, 1.0), (anchor, -1.0)] {
+                        ata[p * m + q] += lk * cp * cq;
+                    }
+                }
+            }
+            for k in 1..nk - 1 {
+                let idx = [k - 1, k, k + 1];
+                let coef = [1.0, -2.0, 1.0];
+                for (p, cp) in idx.iter().zip(coef) {
+                    for (q, cq) in idx.iter().zip(coef) {
+                        ata[p * m + q] += l2 * cp * cq;
+                    }
+                }
+            }
+        }
+        let sol = solve(ata, atb)?;
+        let mut c = nk;
+        let r0 = if free_r0 {
+            c += 1;
+            sol[c - 1]
+        } else {
+            0.0
+        };
+        let r1 = if free_r1 { sol[c] } else { 0.0 };
+        if free_r0 && r0 < 0.0 {
+            free_r0 = false;
+            continue;
+        }
+        if free_r1 && r1 < 0.0 {
+            free_r1 = false;
+            continue;
+        }
+        let mut knots = prior.ocv_cell_v;
+        for (k, slot) in knots.iter_mut().enumerate() {
+            *slot += if learn_shape { sol[k] } else { sol[0] };
+        }
+        // Monotone: isotonic regression weighted by how much data each knot saw.
+        let mut wk = [1.0; OCV_KNOTS];
+        for r in rows {
+            let (i, t) = hat(r.soc);
+            wk[i] += r.w * (1.0 - t);
+            wk[i + 1] += r.w * t;
+        }
+        let iso = isotonic(&knots, &wk);
+        knots.copy_from_slice(&iso);
+        let b = LearnedBattery {
+            ocv_cell_v: strictly_increasing(knots),
+            series_resistance_cell_ohm: r0,
+            rc_resistance_cell_ohm: r1,
+            rc_time_constant_s: if r1 > 0.0 {
+                tau.map_or(0.0, |t| TAUS_S[t])
+            } else {
+                0.0
+            },
+        };
+        // Objective: weighted squared residual plus the penalties.
+        let mut sse = 0.0;
+        let mut sw = 0.0;
+        let mut obj = 0.0;
+        for r in rows {
+            let x1 = tau.map_or(0.0, |t| r.x_by_tau[t]);
+            let e = r.y - b.ocv_cell_v(r.soc) + r.i * r0 + x1 * r1;
+            sse += r.w * e * e;
+            sw += r.w;
+            obj += r.w * e * e / (sigma_v * sigma_v);
+        }
+        for k in 0..OCV_KNOTS {
+            let dk = b.ocv_cell_v[k] - prior.ocv_cell_v[k];
+            obj += if learn_shape {
+                l0 * dk * dk / OCV_KNOTS as f64
+            } else {
+                0.0
+            };
+        }
+        return Some((b, obj, (sse / sw.max(1e-300)).sqrt()));
+    }
+    None
+}
+
+/// Learns one battery type's behaviour from its training flights (see the module docs).
+/// `measured`: a given curve (kept as it is); else `chemistry`'s prior when known, else every
+/// chemistry prior, the best-fitting kept.
+pub fn fit_battery(
+    battery_type: &str,
+    data: &[BatteryData<'_>],
+    measured: Option<&LearnedBattery>,
+    chemistry: Option<Chemistry>,
+) -> BatteryFit {
+    let priors: Vec<(Chemistry, LearnedBattery)> = match (measured, chemistry) {
+        (Some(b), _) => vec![(Chemistry::Measured, *b)],
+        (None, Some(c)) => c.prior().map(|b| (c, b)).into_iter().collect(),
+        (None, None) => Chemistry::PRIORS
+            .iter()
+            .filter_map(|c| c.prior().map(|b| (*c, b)))
+            .collect(),
+    };
+    // A known chemistry's curve varies little from pack to pack (σ 0.03 V); an unknown one may
+    // be any of them and between (σ 0.3 V).
+    let prior_sigma_v = if chemistry.is_some() { 0.03 } else { 0.3 };
+    let current = if data.iter().all(|d| d.source == CurrentSource::Logged) {
+        CurrentSource::Logged
+    } else {
+        CurrentSource::PowerModel
+    };
+    let mut best: Option<(BatteryFit, f64)> = None;
+    for (chem, prior) in priors {
+        // Rounds: the state of charge depends on the curve (start and capacity).
+        let mut start = prior;
+        let mut result = None;
+        for _ in 0..2 {
+            let rows = rows_of(data, &start);
+            let lo = rows.iter().map(|r| r.soc).fold(f64::INFINITY, f64::min);
+            let hi = rows.iter().map(|r| r.soc).fold(f64::NEG_INFINITY, f64::max);
+            let span = (hi - lo).max(0.0);
+            // Without current the state of charge comes from the power model, and the curve's
+            // shape would trade off against that power: only an offset is learned then.
+            let learn_shape = chem != Chemistry::Measured
+                && current == CurrentSource::Logged
+                && rows.len() >= MIN_SAMPLES
+                && span >= MIN_SOC_SPAN;
+            let mut round: Option<(LearnedBattery, f64, f64)> = None;
+            for tau in std::iter::once(None).chain((0..TAUS_S.len()).map(Some)) {
+                if let Some(c) = fit_once(&rows, &prior, tau, learn_shape, prior_sigma_v) {
+                    if round.as_ref().is_none_or(|r| c.1 < r.1) {
+                        round = Some(c);
+                    }
+                }
+            }
+            let Some((mut b, obj, rmse)) = round else {
+                break;
+            };
+            if chem == Chemistry::Measured {
+                b.ocv_cell_v = prior.ocv_cell_v;
+            }
+            let note = if chem == Chemistry::Measured {
+                "open-circuit curve as measured (given); resistances learned".to_owned()
+            } else if learn_shape {
+                format!(
+                    "open-circuit curve learned over state of charge {:.2}–{:.2}, the {} prior's shape beyond",
+                    lo.max(0.0),
+                    hi.min(1.0),
+                    chem.name()
+                )
+            } else if current == CurrentSource::PowerModel {
+                format!(
+                    "no current logged: the {} prior's shape shifted to the flights (the shape would trade off against the power model), resistances learned",
+                    chem.name()
+                )
+            } else {
+                format!(
+                    "too little data to learn the curve's shape ({} samples over {:.2} of the charge; needs {MIN_SAMPLES} over {MIN_SOC_SPAN}): the {} prior shifted, resistances learned",
+                    rows.len(),
+                    span,
+                    chem.name()
+                )
+            };
+            result = Some((
+                BatteryFit {
+                    battery_type: battery_type.to_owned(),
+                    battery: b,
+                    prior: chem,
+                    flights: data.len(),
+                    samples: rows.len(),
+                    soc_covered: (lo.max(0.0), hi.min(1.0)),
+                    rmse_cell_v: rmse,
+                    current,
+                    note,
+                },
+                obj,
+            ));
+            start = b;
+        }
+        if let Some((fit, obj)) = result {
+            if best.as_ref().is_none_or(|b| obj < b.1) {
+                best = Some((fit, obj));
+            }
+        }
+    }
+    best.map(|b| b.0).unwrap_or_else(|| {
+        let prior = measured.copied().unwrap_or_else(LearnedBattery::lipo);
+        BatteryFit {
+            battery_type: battery_type.to_owned(),
+            battery: prior,
+            prior: if measured.is_some() {
+                Chemistry::Measured
+            } else {
+                Chemistry::Lipo
+            },
+            flights: data.len(),
+            samples: 0,
+            soc_covered: (0.0, 0.0),
+            rmse_cell_v: f64::NAN,
+            current,
+            note: "no usable samples: the LiPo prior as it is".to_owned(),
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn priors_are_monotone_and_span_their_chemistry() {
+        for c in Chemistry::PRIORS {
+            let b = c.prior().unwrap();
+            assert!(b.ocv_cell_v.windows(2).all(|w| w[1] > w[0]), "{c:?}");
+            let full = b.ocv_cell_v[OCV_KNOTS - 1];
+            let want = if c == Chemistry::Lihv { 4.35 } else { 4.2 };
+            assert!((full - want).abs() < 0.1, "{c:?} full at {full} V");
+            for k in 0..=100 {
+                let s = f64::from(k) / 100.0;
+                assert!(
+                    (b.soc_for_ocv(b.ocv_cell_v(s)) - s).abs() < 1e-6,
+                    "{c:?} at {s}"
+                );
+            }
+            let m = b.mean_ocv_cell_v();
+            assert!((3.3..4.0).contains(&m), "{c:?} mean {m}");
+        }
+    }
+
+    #[test]
+    fn a_measured_curve_is_read_resampled_and_checked() {
+        let b = LearnedBattery::from_ocv_csv("soc,ocv_v\n0,3.0\n0.5,3.7\n1.0,4.2\n").unwrap();
+        assert!((b.ocv_cell_v(0.5) - 3.7).abs() < 1e-9);
+        assert!((b.ocv_cell_v(0.25) - 3.35).abs() < 0.02);
+        let pct = LearnedBattery::from_ocv_csv("0,3.0\n50,3.7\n100,4.2\n").unwrap();
+        assert_eq!(pct.ocv_cell_v, b.ocv_cell_v);
+        assert!(matches!(
+            LearnedBattery::from_ocv_csv("soc,ocv_v\n0.4,3.7\n1.0,4.2\n"),
+            Err(OcvCsvError::Coverage(_))
+        ));
+        assert!(matches!(
+            LearnedBattery::from_ocv_csv("soc,ocv_v\n0,3.0\nhalf,3.7\n"),
+            Err(OcvCsvError::Line { line: 3, .. })
+        ));
+        assert!(matches!(
+            LearnedBattery::from_ocv_csv("0,3.0\n1,42\n"),
+            Err(OcvCsvError::Range { line: 2, .. })
+        ));
+    }
+
+    #[test]
+    fn the_lipo_prior_has_its_knee_at_the_end_of_the_discharge() {
+        let (s, v) = LearnedBattery::lipo().knee().unwrap();
+        assert!(s < 0.2 && v < 3.7, "knee at {s} ({v} V)");
+    }
+}
