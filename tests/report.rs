@@ -210,3 +210,112 @@ fn a_plan_without_a_battery_is_one_clear_error_and_nothing_is_written() {
     assert!(err.contains("--plan needs a battery"), "{err}");
     assert!(!out.exists());
 }
+
+/// Runs `report` on a session with a watchdog: an absurd input must end, promptly, with exit 2.
+fn report_ends(sess: &Path, out: &Path) -> Output {
+    Command::cargo_bin("hoverbench")
+        .unwrap()
+        .args([
+            "report",
+            sess.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--structure-mass",
+            "431g",
+            "--avionics-power",
+            "2.44",
+        ])
+        .timeout(std::time::Duration::from_secs(60))
+        .output()
+        .unwrap()
+}
+
+fn replace_line(path: &Path, key: &str, line: &str) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut found = false;
+    let new: Vec<String> = text
+        .lines()
+        .map(|l| {
+            if l.trim_start().starts_with(key) {
+                found = true;
+                line.to_owned()
+            } else {
+                l.to_owned()
+            }
+        })
+        .collect();
+    assert!(found, "{key} not in {}", path.display());
+    std::fs::write(path, new.join("\n") + "\n").unwrap();
+}
+
+#[test]
+fn absurd_values_end_in_a_clear_error_not_a_hang() {
+    let tmp = tempfile::tempdir().unwrap();
+    let cases: [(&str, &dyn Fn(&Path)); 3] = [
+        ("valid_max", &|s: &Path| {
+            replace_line(&s.join("params.toml"), "valid_max", "valid_max = 1e300")
+        }),
+        ("coefficient", &|s: &Path| {
+            // the first scaled coefficient (the line after `coefficients_scaled = [`)
+            let p = s.join("params.toml");
+            let text = std::fs::read_to_string(&p).unwrap();
+            let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
+            let at = lines
+                .iter()
+                .position(|l| l.starts_with("coefficients_scaled"))
+                .unwrap();
+            lines[at + 1] = "    1e308,".to_owned();
+            std::fs::write(&p, lines.join("\n") + "\n").unwrap();
+        }),
+        ("power_w", &|s: &Path| {
+            let p = s.join("sweep.csv");
+            let text = std::fs::read_to_string(&p).unwrap();
+            let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
+            let cols: Vec<&str> = lines[5].split(',').collect();
+            lines[5] = format!("{},1e308,{}", cols[0], cols[2]);
+            std::fs::write(&p, lines.join("\n") + "\n").unwrap();
+        }),
+    ];
+    for (name, spoil) in cases {
+        let sess = tmp.path().join(name);
+        session(&sess, "sweep.csv");
+        spoil(&sess);
+        let out = tmp.path().join(format!("{name}-out"));
+        let o = report_ends(&sess, &out);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{name}: {err}");
+        assert!(
+            err.contains("cannot be plotted") || err.contains("not finite"),
+            "{name}: {err}"
+        );
+        assert!(!out.join("report.html").exists(), "{name}");
+    }
+}
+
+#[test]
+fn a_plan_nested_thousands_deep_is_an_error_not_a_crash() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sess = tmp.path().join("s");
+    session(&sess, "sweep.csv");
+    let plan = format!("{}hover 2m{}", "1x(".repeat(19_000), ")".repeat(19_000));
+    let out = tmp.path().join("out");
+    let o = hoverbench(&[
+        "report",
+        sess.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--structure-mass",
+        "431g",
+        "--avionics-power",
+        "2.44",
+        "--battery-mass",
+        "144g",
+        "--battery-energy-density",
+        "164",
+        "--plan",
+        &plan,
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("nested more than 32 deep"), "{err}");
+}

@@ -134,7 +134,10 @@ impl Draw for BatteryMassFigure {
             .margin_top(8)
             .x_label_area_size(60)
             .y_label_area_size(76)
-            .build_cartesian_2d(x0..x1, y0..y1)?;
+            .build_cartesian_2d(
+                render::axis("battery mass", x0, x1)?,
+                render::axis("endurance", y0, y1)?,
+            )?;
         let (xd, yd) = (tick_decimals(x1 - x0), tick_decimals(y1 - y0));
         let x_fmt = |v: &f64| tick(*v, xd);
         let y_fmt = |v: &f64| tick(*v, yd);

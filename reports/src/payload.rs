@@ -274,7 +274,10 @@ impl Draw for PayloadFigure {
             .margin_top(8)
             .x_label_area_size(60)
             .y_label_area_size(76)
-            .build_cartesian_2d(-0.02 * x1..x1, 0.0..y1)?;
+            .build_cartesian_2d(
+                render::axis("payload mass", -0.02 * x1, x1)?,
+                render::axis("endurance", 0.0, y1)?,
+            )?;
         let (xd, yd) = (tick_decimals(x1), tick_decimals(y1));
         let x_fmt = |v: &f64| tick(*v, xd);
         let y_fmt = |v: &f64| tick(*v, yd);

@@ -201,7 +201,10 @@ impl Draw for ThrustCurveFigure {
             .margin_top(8)
             .x_label_area_size(if lower.is_some() { 36 } else { 60 })
             .y_label_area_size(84)
-            .build_cartesian_2d(x0..x1, y0..y1)?;
+            .build_cartesian_2d(
+                render::axis("thrust", x0, x1)?,
+                render::axis("power", y0, y1)?,
+            )?;
         let (xd, yd) = (tick_decimals(x1 - x0), tick_decimals(y1 - y0));
         let x_fmt = |v: &f64| tick(*v, xd);
         let y_fmt = |v: &f64| tick(*v, yd);
@@ -317,7 +320,10 @@ impl Draw for ThrustCurveFigure {
                 .margin_top(10)
                 .x_label_area_size(60)
                 .y_label_area_size(84)
-                .build_cartesian_2d(x0..x1, -r..r)?;
+                .build_cartesian_2d(
+                    render::axis("thrust", x0, x1)?,
+                    render::axis("residual", -r, r)?,
+                )?;
             chart
                 .configure_mesh()
                 .x_desc("thrust per rotor (g)")
