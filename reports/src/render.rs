@@ -148,13 +148,19 @@ impl plotters::coord::ranged1d::Ranged for Axis {
     type ValueType = f64;
 
     fn map(&self, v: &f64, limit: (i32, i32)) -> i32 {
+        // as plotters maps, with far-outside points clamped (drawing clips them) and NaN mapped
+        // to the start
         let fraction = (v - self.lo) / (self.hi - self.lo);
-        let px = f64::from(limit.0) + fraction * f64::from(limit.1 - limit.0);
-        // far outside points clamp (drawing clips them); NaN maps to the start
-        if px.is_nan() {
+        let length = f64::from(limit.1 - limit.0);
+        let offset = if length >= 0.0 {
+            (length * fraction + 1e-3).floor()
+        } else {
+            (length * fraction - 1e-3).ceil()
+        };
+        if offset.is_nan() {
             limit.0
         } else {
-            px.round().clamp(-1e6, 1e6) as i32
+            limit.0 + offset.clamp(-1e6, 1e6) as i32
         }
     }
 
