@@ -319,3 +319,37 @@ fn a_plan_nested_thousands_deep_is_an_error_not_a_crash() {
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("nested more than 32 deep"), "{err}");
 }
+
+#[test]
+fn a_long_sweep_is_drawn_decimated_into_small_files() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sess = tmp.path().join("s");
+    session(&sess, "sweep.csv");
+    // 50,000 noisy steps (a raw log): one SVG element per step made files of hundreds of MB.
+    let mut csv = String::from("thrust_g,power_w,power_std_w\n");
+    for i in 0..50_000u32 {
+        let t = f64::from(i % 2600) / 10.0;
+        let wobble = f64::from(i % 7) * 0.01;
+        csv.push_str(&format!(
+            "{t},{},{}\n",
+            0.16 * t + 0.0004 * t * t + wobble,
+            0.05
+        ));
+    }
+    std::fs::write(sess.join("sweep.csv"), csv).unwrap();
+    let out = tmp.path().join("out");
+    let o = report_ends(&sess, &out);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let svg = std::fs::metadata(out.join("fig3-thrust-curve.svg"))
+        .unwrap()
+        .len();
+    assert!(svg < 1_500_000, "fig3 SVG is {svg} bytes");
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("50000 steps"), "subtitle");
+    assert!(html.contains("too many for a table"));
+    assert!(
+        html.len() < 3_000_000,
+        "report.html is {} bytes",
+        html.len()
+    );
+}

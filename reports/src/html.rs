@@ -226,6 +226,9 @@ fn model_section(input: &ReportInput) -> String {
     format!("<h2>Model</h2>\n{}", t.finish())
 }
 
+/// Most measured steps listed in the report's table.
+const MAX_TABLE_STEPS: usize = 500;
+
 fn thrust_tables(f: &ThrustCurveFigure) -> String {
     let Some(s) = f.residual_summary() else {
         return "<p class=\"note\">No measured steps: the fitted curve alone is drawn.</p>\n"
@@ -238,6 +241,13 @@ fn thrust_tables(f: &ThrustCurveFigure) -> String {
         num(s.max_abs_w, 4),
         num(s.max_abs_at_g, 1)
     );
+    if s.n_points > MAX_TABLE_STEPS {
+        out.push_str(&format!(
+            "<p class=\"note\">The {} steps are too many for a table; they are in the sweep file.</p>\n",
+            s.n_points
+        ));
+        return out;
+    }
     let mut t = Table::new(&[
         "thrust (g)",
         "measured (W)",
