@@ -353,3 +353,61 @@ fn a_long_sweep_is_drawn_decimated_into_small_files() {
         html.len()
     );
 }
+
+#[test]
+fn a_params_file_alone_gives_fig3_and_the_report() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sess = tmp.path().join("s");
+    session(&sess, "sweep.csv");
+    let out = tmp.path().join("out");
+    let params = sess.join("params.toml");
+    // exactly as the README writes it: `hoverbench report SESSION_OR_PARAMS -o DIR`
+    let o = hoverbench(&[
+        "report",
+        params.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut names: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        [
+            "fig3-thrust-curve.png",
+            "fig3-thrust-curve.svg",
+            "report.html"
+        ]
+    );
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(
+        html.contains("27 measured steps"),
+        "the sweep was not found"
+    );
+    assert!(html.contains("not given (--structure-mass, --avionics-power)"));
+    assert!(!html.contains("NaN"));
+    assert_self_contained(&html);
+    // the session folder works the same
+    let out2 = tmp.path().join("out2");
+    let o = hoverbench(&[
+        "report",
+        sess.to_str().unwrap(),
+        "-o",
+        out2.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // figures that need the platform say so
+    let o = hoverbench(&[
+        "report",
+        sess.to_str().unwrap(),
+        "-o",
+        out2.to_str().unwrap(),
+        "--plan",
+        "hover until empty",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--plan needs the platform"));
+}

@@ -158,22 +158,30 @@ fn model_section(input: &ReportInput) -> String {
     let (lo, hi) = c.valid_range_g();
     let mut t = Table::new(&["quantity", "value"]);
     t.row(&["rotors".to_owned(), m.platform.rotor_count.to_string()]);
-    t.row(&[
-        "structure mass m_S".to_owned(),
-        format!("{} kg", num(m.platform.structure_mass_kg, 3)),
-    ]);
-    t.row(&[
-        "avionics power p_A".to_owned(),
-        format!("{} W", num(m.platform.avionics_power_w, 3)),
-    ]);
-    t.row(&[
-        "payload m_P, p_P".to_owned(),
-        format!(
-            "{} kg, {} W",
-            num(input.payload.mass_kg, 3),
-            num(input.payload.power_w, 3)
-        ),
-    ]);
+    // A report of a parameter file alone has no platform (NaN): say so rather than print NaN.
+    if m.platform.structure_mass_kg.is_nan() || m.platform.avionics_power_w.is_nan() {
+        t.row(&[
+            "platform m_S, p_A".to_owned(),
+            "not given (--structure-mass, --avionics-power)".to_owned(),
+        ]);
+    } else {
+        t.row(&[
+            "structure mass m_S".to_owned(),
+            format!("{} kg", num(m.platform.structure_mass_kg, 3)),
+        ]);
+        t.row(&[
+            "avionics power p_A".to_owned(),
+            format!("{} W", num(m.platform.avionics_power_w, 3)),
+        ]);
+        t.row(&[
+            "payload m_P, p_P".to_owned(),
+            format!(
+                "{} kg, {} W",
+                num(input.payload.mass_kg, 3),
+                num(input.payload.power_w, 3)
+            ),
+        ]);
+    }
     t.row(&[
         "thrust curve".to_owned(),
         format!(

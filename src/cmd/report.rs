@@ -43,12 +43,13 @@ pub struct Args {
     /// endurance_mean_min, optional endurance_std_min and samples).
     #[arg(long, value_name = "CSV")]
     flights: Option<PathBuf>,
-    /// m_S: structure mass without battery (kg; or e.g. 431g).
-    #[arg(long, value_name = "MASS", value_parser = output::mass_kg, allow_negative_numbers = true)]
-    structure_mass: f64,
+    /// m_S: structure mass without battery (kg; or e.g. 431g). Without it and --avionics-power
+    /// only Fig. 3 is drawn.
+    #[arg(long, value_name = "MASS", value_parser = output::mass_kg, allow_negative_numbers = true, requires = "avionics_power")]
+    structure_mass: Option<f64>,
     /// p_A: avionics power (W).
-    #[arg(long, value_name = "POWER", value_parser = output::power_w, allow_negative_numbers = true)]
-    avionics_power: f64,
+    #[arg(long, value_name = "POWER", value_parser = output::power_w, allow_negative_numbers = true, requires = "structure_mass")]
+    avionics_power: Option<f64>,
     /// m_P: payload mass for Fig. 4, Fig. 5 and the mission (kg).
     #[arg(long, value_name = "MASS", value_parser = output::mass_kg, allow_negative_numbers = true, default_value = "0")]
     payload_mass: f64,
@@ -108,8 +109,8 @@ pub fn session_figures(
         catalogue: None,
         plan,
         flights: None,
-        structure_mass: structure_mass_kg,
-        avionics_power: avionics_power_w,
+        structure_mass: Some(structure_mass_kg),
+        avionics_power: Some(avionics_power_w),
         payload_mass: 0.0,
         payload_power: 0.0,
         thrust_limit: None,
@@ -123,6 +124,39 @@ pub fn session_figures(
 }
 
 fn write(args: &Args) -> Result<Vec<String>> {
+    let written_by = format!(
+        "written {} by hoverbench {}",
+        jiff::Timestamp::now(),
+        env!("CARGO_PKG_VERSION")
+    );
+    let (Some(structure_mass_kg), Some(avionics_power_w)) =
+        (args.structure_mass, args.avionics_power)
+    else {
+        // A params file alone: Fig. 3 and the HTML; everything else needs the platform.
+        let needs_platform = [
+            (args.catalogue.is_some(), "--catalogue"),
+            (args.plan.is_some(), "--plan"),
+            (args.flights.is_some(), "--flights"),
+            (args.battery_mass.is_some(), "--battery-mass"),
+            (args.energy_density.is_some(), "--energy-density"),
+        ];
+        if let Some((_, flag)) = needs_platform.iter().find(|(given, _)| *given) {
+            anyhow::bail!(
+                "{flag} needs the platform: give --structure-mass and --avionics-power (without them only Fig. 3 is drawn)"
+            );
+        }
+        let files = reports::write_curve_report(
+            &args.input,
+            args.sweep.as_deref(),
+            &args.output,
+            &written_by,
+        )?;
+        return Ok(files
+            .paths()
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect());
+    };
     if args.plan.is_some() && args.battery_mass.is_none() && args.catalogue.is_none() {
         anyhow::bail!(
             "--plan needs a battery: give --battery-mass and --battery-energy-density, or a --catalogue with a pack within the payload limit"
@@ -135,8 +169,8 @@ fn write(args: &Args) -> Result<Vec<String>> {
         catalogue: args.catalogue.clone(),
         plan: args.plan.clone(),
         flights: args.flights.clone(),
-        structure_mass_kg: args.structure_mass,
-        avionics_power_w: args.avionics_power,
+        structure_mass_kg,
+        avionics_power_w,
         payload: Payload {
             mass_kg: args.payload_mass,
             power_w: args.payload_power,
@@ -149,11 +183,7 @@ fn write(args: &Args) -> Result<Vec<String>> {
             Eq8::Consistent => Eq8Form::Consistent,
             Eq8::Printed => Eq8Form::PrintedHours,
         },
-        written_by: format!(
-            "written {} by hoverbench {}",
-            jiff::Timestamp::now(),
-            env!("CARGO_PKG_VERSION")
-        ),
+        written_by,
     })?;
     Ok(files
         .paths()
