@@ -502,3 +502,24 @@ fn a_mission_plan_nested_thousands_deep_is_an_error_not_a_crash() {
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("nested more than 32 deep"), "{err}");
 }
+
+#[test]
+fn sim_rig_prints_its_port_as_json() {
+    use std::io::BufRead;
+    let mut child = std::process::Command::new(assert_cmd::cargo::cargo_bin("hoverbench"))
+        .args(["sim-rig", "--json", "--speed", "10"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    std::io::BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let v: Value = serde_json::from_str(&line).unwrap_or_else(|e| panic!("{e}: {line:?}"));
+    assert!(v["port"].as_str().unwrap().starts_with("/dev/pts/"), "{v}");
+    assert_eq!(v["preset"], "paper");
+    assert_eq!(f(&v, "speed"), 10.0);
+}

@@ -182,9 +182,14 @@ impl Draw for BatteryMassFigure {
 
         chart
             .draw_series(LineSeries::new(
-                self.curve
-                    .iter()
-                    .map(|p| (p.battery_mass_kg, p.endurance_min)),
+                render::thin(
+                    &self
+                        .curve
+                        .iter()
+                        .map(|p| (p.battery_mass_kg, p.endurance_min))
+                        .collect::<Vec<_>>(),
+                    render::CURVE_POINTS,
+                ),
                 colour::BLUE.stroke_width(3),
             ))?
             .label(format!(

@@ -381,6 +381,23 @@ pub(crate) fn tick(v: f64, decimals: usize) -> String {
     }
 }
 
+/// Points of a smooth curve to draw as a thick polyline: at most `max`, evenly spaced through
+/// `points`, the first and last kept. Pixel coordinates are whole numbers, so a curve drawn
+/// through hundreds of points a few pixels apart becomes a staircase of one-pixel jumps; fewer,
+/// longer segments stay straight and smooth.
+pub(crate) fn thin(points: &[(f64, f64)], max: usize) -> Vec<(f64, f64)> {
+    if points.len() <= max || max < 2 {
+        return points.to_vec();
+    }
+    let last = points.len() - 1;
+    (0..max)
+        .map(|i| points[(i * last + (max - 1) / 2) / (max - 1)])
+        .collect()
+}
+
+/// Points drawn along a smooth curve (see [`thin`]).
+pub(crate) const CURVE_POINTS: usize = 48;
+
 /// Horizontal anchor for a label beside a point at `fraction` (0 = left, 1 = right) of the plot
 /// width, so that the label stays inside the plot.
 pub(crate) fn h_anchor(fraction: f64) -> HPos {
@@ -451,6 +468,19 @@ mod tests {
         assert_eq!(num(-0.0001, 2), "0.00");
         assert_eq!(num(-0.01, 2), "-0.01");
         assert_eq!(num(13.826, 2), "13.83");
+    }
+
+    #[test]
+    fn thinned_curves_keep_their_ends() {
+        let pts: Vec<(f64, f64)> = (0..=300)
+            .map(|i| (f64::from(i), f64::from(i * i)))
+            .collect();
+        let t = thin(&pts, 48);
+        assert_eq!(t.len(), 48);
+        assert_eq!(t[0], pts[0]);
+        assert_eq!(*t.last().unwrap(), pts[300]);
+        assert!(t.windows(2).all(|w| w[0].0 < w[1].0));
+        assert_eq!(thin(&pts[..10], 48).len(), 10);
     }
 
     #[test]

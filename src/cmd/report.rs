@@ -177,7 +177,11 @@ fn write(args: &Args) -> Result<Vec<String>> {
         },
         thrust_limit_kg: args.thrust_limit,
         energy_density_wh_per_kg: args.energy_density,
-        battery: args.battery_mass.zip(args.battery_energy_density),
+        // 144g is 0.144 kg, not 0.14400000000000002 in the battery's name
+        battery: args
+            .battery_mass
+            .map(round_decimal)
+            .zip(args.battery_energy_density.map(round_decimal)),
         payload_powers_w: args.payload_powers.clone(),
         eq8: match args.eq8 {
             Eq8::Consistent => Eq8Form::Consistent,
@@ -190,4 +194,13 @@ fn write(args: &Args) -> Result<Vec<String>> {
         .iter()
         .map(|p| p.display().to_string())
         .collect())
+}
+
+/// `v` with the binary noise of a unit conversion removed (12 significant digits).
+fn round_decimal(v: f64) -> f64 {
+    if v == 0.0 || !v.is_finite() {
+        return v;
+    }
+    let scale = 10f64.powi(11 - v.abs().log10().floor() as i32);
+    (v * scale).round() / scale
 }
