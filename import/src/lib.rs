@@ -619,10 +619,14 @@ impl Table {
         if out.x.is_empty() {
             return Err(ImportError::Empty {
                 source_name: self.source_name.clone(),
-                message: format!(
-                    "all {} rows are marked invalid: nothing to fit",
-                    out.skipped_invalid
-                ),
+                message: if out.skipped_invalid == 1 {
+                    "the only row is marked invalid: nothing to fit".to_owned()
+                } else {
+                    format!(
+                        "all {} rows are marked invalid: nothing to fit",
+                        out.skipped_invalid
+                    )
+                },
             });
         }
         Ok(out)
@@ -795,6 +799,16 @@ mod tests {
         .unwrap();
         assert_eq!(t.comments, ["rig: x", "supply: 12.5 V"]);
         assert_eq!(t.column("Thrust (gf)").unwrap(), [12.0, 13.0]);
+    }
+
+    #[test]
+    fn a_single_invalid_row_is_not_one_rows() {
+        let t = Table::parse(b"thrust_g,power_w,valid\n1,2,false\n", "v.csv").unwrap();
+        let e = t.xy("thrust_g", &YSource::power_default()).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "v.csv: the only row is marked invalid: nothing to fit"
+        );
     }
 
     #[test]
