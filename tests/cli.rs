@@ -523,3 +523,23 @@ fn sim_rig_prints_its_port_as_json() {
     assert_eq!(v["preset"], "paper");
     assert_eq!(f(&v, "speed"), 10.0);
 }
+
+#[test]
+fn a_bare_mass_implausible_in_kg_suggests_grams() {
+    let o = hoverbench(&[
+        "estimate",
+        "--paper",
+        "--structure-mass",
+        "431",
+        "--battery-mass",
+        "0.144",
+        "--energy-density",
+        "164",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("hint: --structure-mass 431 is read as 431 kg (a bare number is kg); for grams write --structure-mass 431g"),
+        "{err}"
+    );
+}

@@ -351,7 +351,7 @@ impl ParamsFile {
                     format!(
                         "thrust_limit.total_kg = {} contradicts per_rotor_g × rotor_count = {} g × {} = {} kg",
                         l.total_kg,
-                        l.per_rotor_g,
+                        round_sig(l.per_rotor_g, 6),
                         self.rotor_count,
                         round_sig(implied_kg, 6)
                     ),
