@@ -251,7 +251,8 @@ fn replace_line(path: &Path, key: &str, line: &str) {
 #[test]
 fn absurd_values_end_in_a_clear_error_not_a_hang() {
     let tmp = tempfile::tempdir().unwrap();
-    let cases: [(&str, &dyn Fn(&Path)); 3] = [
+    type Spoil<'a> = &'a dyn Fn(&Path);
+    let cases: [(&str, Spoil); 3] = [
         ("valid_max", &|s: &Path| {
             replace_line(&s.join("params.toml"), "valid_max", "valid_max = 1e300")
         }),
