@@ -45,6 +45,9 @@ fn main() -> ExitCode {
             for cause in e.chain().skip(1) {
                 eprintln!("  caused by: {cause}");
             }
+            for hint in cmd::mass_unit_hints(std::env::args().skip(1)) {
+                eprintln!("hint: {hint}");
+            }
             ExitCode::from(2)
         }
     }

@@ -412,3 +412,134 @@ fn bad_input_gives_one_clear_message_and_writes_nothing() {
     );
     assert!(!out.exists(), "a failed command wrote {o}");
 }
+
+#[test]
+fn a_catalogue_with_an_unterminated_quote_is_refused_at_the_quote() {
+    let dir = tempfile::tempdir().unwrap();
+    let cat = dir.path().join("cat.csv");
+    std::fs::write(
+        &cat,
+        "name,cells,capacity_mah,mass_g\nA,3,2100,170\n\"B,3,1500,120\nC,3,1000,90\n",
+    )
+    .unwrap();
+    let o = hoverbench(&["optimise", "--paper", "--catalogue", cat.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("cat.csv, line 3, column 1: a quote opens here and is never closed"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_params_file_whose_total_contradicts_its_per_rotor_limit_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let params = dir.path().join("p.toml");
+    let o = hoverbench(&[
+        "fit",
+        data("paper-sweep.csv").to_str().unwrap(),
+        "--limit",
+        data("paper-limit-9v.csv").to_str().unwrap(),
+        "-o",
+        params.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = std::fs::read_to_string(&params).unwrap();
+    let line = text
+        .lines()
+        .position(|l| l.starts_with("total_kg"))
+        .expect("a thrust limit")
+        + 1;
+    let spoiled: String = text
+        .lines()
+        .map(|l| {
+            if l.starts_with("total_kg") {
+                "total_kg = 0.9".to_owned()
+            } else {
+                l.to_owned()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    std::fs::write(&params, spoiled).unwrap();
+    let o = hoverbench(&[
+        "estimate",
+        "--params",
+        params.to_str().unwrap(),
+        "--structure-mass",
+        "0.431",
+        "--avionics-power",
+        "2.44",
+        "--battery-mass",
+        "0.144",
+        "--energy-density",
+        "164",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains(&format!(
+            "line {line}, column 12: thrust_limit.total_kg = 0.9 contradicts"
+        )),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_mission_plan_nested_thousands_deep_is_an_error_not_a_crash() {
+    let plan = format!("{}hover 2m{}", "1x(".repeat(19_000), ")".repeat(19_000));
+    let o = hoverbench(&[
+        "mission",
+        "--paper",
+        "--battery-mass",
+        "0.144",
+        "--energy-density",
+        "164",
+        "--plan",
+        &plan,
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("nested more than 32 deep"), "{err}");
+}
+
+#[test]
+fn sim_rig_prints_its_port_as_json() {
+    use std::io::BufRead;
+    let mut child = std::process::Command::new(assert_cmd::cargo::cargo_bin("hoverbench"))
+        .args(["sim-rig", "--json", "--speed", "10"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    std::io::BufReader::new(child.stdout.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let v: Value = serde_json::from_str(&line).unwrap_or_else(|e| panic!("{e}: {line:?}"));
+    assert!(v["port"].as_str().unwrap().starts_with("/dev/pts/"), "{v}");
+    assert_eq!(v["preset"], "paper");
+    assert_eq!(f(&v, "speed"), 10.0);
+}
+
+#[test]
+fn a_bare_mass_implausible_in_kg_suggests_grams() {
+    let o = hoverbench(&[
+        "estimate",
+        "--paper",
+        "--structure-mass",
+        "431",
+        "--battery-mass",
+        "0.144",
+        "--energy-density",
+        "164",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("hint: --structure-mass 431 is read as 431 kg (a bare number is kg); for grams write --structure-mass 431g"),
+        "{err}"
+    );
+}

@@ -210,3 +210,205 @@ fn a_plan_without_a_battery_is_one_clear_error_and_nothing_is_written() {
     assert!(err.contains("--plan needs a battery"), "{err}");
     assert!(!out.exists());
 }
+
+/// Runs `report` on a session with a watchdog: an absurd input must end, promptly, with exit 2.
+fn report_ends(sess: &Path, out: &Path) -> Output {
+    Command::cargo_bin("hoverbench")
+        .unwrap()
+        .args([
+            "report",
+            sess.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "--structure-mass",
+            "431g",
+            "--avionics-power",
+            "2.44",
+        ])
+        .timeout(std::time::Duration::from_secs(60))
+        .output()
+        .unwrap()
+}
+
+fn replace_line(path: &Path, key: &str, line: &str) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut found = false;
+    let new: Vec<String> = text
+        .lines()
+        .map(|l| {
+            if l.trim_start().starts_with(key) {
+                found = true;
+                line.to_owned()
+            } else {
+                l.to_owned()
+            }
+        })
+        .collect();
+    assert!(found, "{key} not in {}", path.display());
+    std::fs::write(path, new.join("\n") + "\n").unwrap();
+}
+
+#[test]
+fn absurd_values_end_in_a_clear_error_not_a_hang() {
+    let tmp = tempfile::tempdir().unwrap();
+    type Spoil<'a> = &'a dyn Fn(&Path);
+    let cases: [(&str, Spoil); 3] = [
+        ("valid_max", &|s: &Path| {
+            replace_line(&s.join("params.toml"), "valid_max", "valid_max = 1e300")
+        }),
+        ("coefficient", &|s: &Path| {
+            // the first scaled coefficient (the line after `coefficients_scaled = [`)
+            let p = s.join("params.toml");
+            let text = std::fs::read_to_string(&p).unwrap();
+            let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
+            let at = lines
+                .iter()
+                .position(|l| l.starts_with("coefficients_scaled"))
+                .unwrap();
+            lines[at + 1] = "    1e308,".to_owned();
+            std::fs::write(&p, lines.join("\n") + "\n").unwrap();
+        }),
+        ("power_w", &|s: &Path| {
+            let p = s.join("sweep.csv");
+            let text = std::fs::read_to_string(&p).unwrap();
+            let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
+            let cols: Vec<&str> = lines[5].split(',').collect();
+            lines[5] = format!("{},1e308,{}", cols[0], cols[2]);
+            std::fs::write(&p, lines.join("\n") + "\n").unwrap();
+        }),
+    ];
+    for (name, spoil) in cases {
+        let sess = tmp.path().join(name);
+        session(&sess, "sweep.csv");
+        spoil(&sess);
+        let out = tmp.path().join(format!("{name}-out"));
+        let o = report_ends(&sess, &out);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{name}: {err}");
+        assert!(
+            err.contains("cannot be plotted") || err.contains("not finite"),
+            "{name}: {err}"
+        );
+        assert!(!out.join("report.html").exists(), "{name}");
+    }
+}
+
+#[test]
+fn a_plan_nested_thousands_deep_is_an_error_not_a_crash() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sess = tmp.path().join("s");
+    session(&sess, "sweep.csv");
+    let plan = format!("{}hover 2m{}", "1x(".repeat(19_000), ")".repeat(19_000));
+    let out = tmp.path().join("out");
+    let o = hoverbench(&[
+        "report",
+        sess.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+        "--structure-mass",
+        "431g",
+        "--avionics-power",
+        "2.44",
+        "--battery-mass",
+        "144g",
+        "--battery-energy-density",
+        "164",
+        "--plan",
+        &plan,
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("nested more than 32 deep"), "{err}");
+}
+
+#[test]
+fn a_long_sweep_is_drawn_decimated_into_small_files() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sess = tmp.path().join("s");
+    session(&sess, "sweep.csv");
+    // 50,000 noisy steps (a raw log): one SVG element per step made files of hundreds of MB.
+    let mut csv = String::from("thrust_g,power_w,power_std_w\n");
+    for i in 0..50_000u32 {
+        let t = f64::from(i % 2600) / 10.0;
+        let wobble = f64::from(i % 7) * 0.01;
+        csv.push_str(&format!(
+            "{t},{},{}\n",
+            0.16 * t + 0.0004 * t * t + wobble,
+            0.05
+        ));
+    }
+    std::fs::write(sess.join("sweep.csv"), csv).unwrap();
+    let out = tmp.path().join("out");
+    let o = report_ends(&sess, &out);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let svg = std::fs::metadata(out.join("fig3-thrust-curve.svg"))
+        .unwrap()
+        .len();
+    assert!(svg < 1_500_000, "fig3 SVG is {svg} bytes");
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("50000 steps"), "subtitle");
+    assert!(html.contains("too many for a table"));
+    assert!(
+        html.len() < 3_000_000,
+        "report.html is {} bytes",
+        html.len()
+    );
+}
+
+#[test]
+fn a_params_file_alone_gives_fig3_and_the_report() {
+    let tmp = tempfile::tempdir().unwrap();
+    let sess = tmp.path().join("s");
+    session(&sess, "sweep.csv");
+    let out = tmp.path().join("out");
+    let params = sess.join("params.toml");
+    // exactly as the README writes it: `hoverbench report SESSION_OR_PARAMS -o DIR`
+    let o = hoverbench(&[
+        "report",
+        params.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let mut names: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        [
+            "fig3-thrust-curve.png",
+            "fig3-thrust-curve.svg",
+            "report.html"
+        ]
+    );
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(
+        html.contains("27 measured steps"),
+        "the sweep was not found"
+    );
+    assert!(html.contains("not given (--structure-mass, --avionics-power)"));
+    assert!(!html.contains("NaN"));
+    assert_self_contained(&html);
+    // the session folder works the same
+    let out2 = tmp.path().join("out2");
+    let o = hoverbench(&[
+        "report",
+        sess.to_str().unwrap(),
+        "-o",
+        out2.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // figures that need the platform say so
+    let o = hoverbench(&[
+        "report",
+        sess.to_str().unwrap(),
+        "-o",
+        out2.to_str().unwrap(),
+        "--plan",
+        "hover until empty",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--plan needs the platform"));
+}

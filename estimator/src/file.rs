@@ -207,6 +207,43 @@ fn path_prefix(path: Option<&Path>) -> String {
         .unwrap_or_default()
 }
 
+/// `v` rounded to `digits` significant digits (for messages).
+fn round_sig(v: f64, digits: i32) -> f64 {
+    if v == 0.0 || !v.is_finite() {
+        return v;
+    }
+    let scale = 10f64.powi(digits - 1 - v.abs().log10().floor() as i32);
+    (v * scale).round() / scale
+}
+
+/// 1-based line and column of the value of `key` in `[section]` (the section's line, or 1:1,
+/// when the key is not found as written).
+fn key_position(text: &str, section: &str, key: &str) -> (usize, usize) {
+    let mut current = "";
+    let mut section_line = (1, 1);
+    for (i, line) in text.lines().enumerate() {
+        let t = line.trim();
+        if let Some(name) = t.strip_prefix('[').and_then(|r| r.strip_suffix(']')) {
+            current = name.trim();
+            if current == section {
+                section_line = (i + 1, 1);
+            }
+            continue;
+        }
+        if current == section {
+            if let Some(rest) = t.strip_prefix(key) {
+                if rest.trim_start().starts_with('=') {
+                    let eq = line.find('=').unwrap_or(0);
+                    let after = &line[eq + 1..];
+                    let value_at = eq + 1 + (after.len() - after.trim_start().len());
+                    return (i + 1, line[..value_at].chars().count() + 1);
+                }
+            }
+        }
+    }
+    section_line
+}
+
 fn line_column(text: &str, offset: usize) -> (usize, usize) {
     let before = &text[..offset.min(text.len())];
     let line = before.matches('\n').count() + 1;
@@ -276,7 +313,67 @@ impl ParamsFile {
                 path: path.map(Path::to_owned),
                 source,
             })?;
+        file.check_values(text, path)?;
         Ok(file)
+    }
+
+    /// Values a strict parse lets through but no hoverbench file holds: a thrust limit whose
+    /// `total_kg` contradicts `per_rotor_g × rotor_count`, and uncertainties that are not finite
+    /// and ≥ 0. Each error names the key's line and column.
+    fn check_values(&self, text: &str, path: Option<&Path>) -> Result<(), ParamsFileError> {
+        let at = |section: &str, key: &str, message: String| {
+            let (line, column) = key_position(text, section, key);
+            ParamsFileError::Syntax {
+                path: path.map(Path::to_owned),
+                line,
+                column,
+                message,
+            }
+        };
+        if let Some(l) = &self.thrust_limit {
+            if !(l.uncertainty_g.is_finite() && l.uncertainty_g >= 0.0) {
+                return Err(at(
+                    "thrust_limit",
+                    "uncertainty_g",
+                    format!(
+                        "thrust_limit.uncertainty_g is {}: an uncertainty is a finite number ≥ 0",
+                        l.uncertainty_g
+                    ),
+                ));
+            }
+            let implied_kg = l.per_rotor_g * f64::from(self.rotor_count) / 1000.0;
+            // the writer stores both at full precision; allow for hand-rounded values
+            let tolerance_kg = (implied_kg.abs() * 5e-3).max(5e-4);
+            if !l.total_kg.is_finite() || (l.total_kg - implied_kg).abs() > tolerance_kg {
+                return Err(at(
+                    "thrust_limit",
+                    "total_kg",
+                    format!(
+                        "thrust_limit.total_kg = {} contradicts per_rotor_g × rotor_count = {} g × {} = {} kg",
+                        l.total_kg,
+                        round_sig(l.per_rotor_g, 6),
+                        self.rotor_count,
+                        round_sig(implied_kg, 6)
+                    ),
+                ));
+            }
+        }
+        if let Some((k, v)) = self
+            .fit
+            .coefficient_std_errors_scaled
+            .iter()
+            .enumerate()
+            .find(|(_, v)| !(v.is_finite() && **v >= 0.0))
+        {
+            return Err(at(
+                "fit",
+                "coefficient_std_errors_scaled",
+                format!(
+                    "fit.coefficient_std_errors_scaled[{k}] is {v}: a standard error is a finite number ≥ 0"
+                ),
+            ));
+        }
+        Ok(())
     }
 
     /// Renders the file as TOML.
@@ -432,6 +529,50 @@ mod tests {
             f.to_params(),
             Err(ParamsFileError::NotAThrustCurve { .. })
         ));
+    }
+
+    #[test]
+    fn total_kg_must_agree_with_the_per_rotor_limit() {
+        let text = sample()
+            .to_toml_string()
+            .replace("total_kg = 0.6", "total_kg = 0.9");
+        let line = text.lines().position(|l| l == "total_kg = 0.9").unwrap() + 1;
+        match ParamsFile::from_toml_str(&text).unwrap_err() {
+            ParamsFileError::Syntax {
+                line: l,
+                column,
+                message,
+                ..
+            } => {
+                assert_eq!((l, column), (line, 12));
+                assert!(
+                    message.contains("contradicts per_rotor_g × rotor_count = 150 g × 4 = 0.6 kg"),
+                    "{message}"
+                );
+            }
+            e => panic!("unexpected {e}"),
+        }
+    }
+
+    #[test]
+    fn uncertainties_are_finite_and_not_negative() {
+        for bad in ["nan", "-0.5", "inf"] {
+            let text = sample()
+                .to_toml_string()
+                .replace("uncertainty_g = 0.5", &format!("uncertainty_g = {bad}"));
+            let e = ParamsFile::from_toml_str(&text).unwrap_err().to_string();
+            assert!(
+                e.contains("uncertainty_g") && e.contains("finite number ≥ 0"),
+                "{e}"
+            );
+            assert!(e.contains("line "), "{e}");
+        }
+        let mut f = sample();
+        f.fit.coefficient_std_errors_scaled[1] = -0.1;
+        let e = ParamsFile::from_toml_str(&f.to_toml_string())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("coefficient_std_errors_scaled[1]"), "{e}");
     }
 
     #[test]

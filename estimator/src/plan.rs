@@ -31,6 +31,9 @@ pub struct PlanError {
 const MAX_REPEAT: u32 = 1000;
 /// Largest expanded plan.
 const MAX_SEGMENTS: usize = 100_000;
+/// Deepest nesting of repeats accepted: far beyond any real mission, far below what would
+/// overflow the parser's stack (it recurses once per level).
+pub const MAX_DEPTH: usize = 32;
 
 /// Parses a plan into its flat list of segments (repeats expanded).
 pub fn parse_plan(text: &str) -> Result<Vec<Segment>, PlanError> {
@@ -158,6 +161,9 @@ impl Parser<'_> {
             if n == 0 || n > MAX_REPEAT {
                 self.pos = at;
                 return Err(self.error(format!("repeat count must be 1 to {MAX_REPEAT}")));
+            }
+            if depth + 1 > MAX_DEPTH {
+                return Err(self.error(format!("repeats are nested more than {MAX_DEPTH} deep")));
             }
             self.pos += 1;
             let body = self.plan(depth + 1)?;
@@ -318,6 +324,24 @@ mod tests {
         assert!(parse_plan("attach until empty").is_err());
         assert!(parse_plan("hover until reserve 150%").is_err());
         assert!(parse_plan("hover -2m").is_err());
+    }
+
+    #[test]
+    fn deep_nesting_is_an_error_not_a_stack_overflow() {
+        // ~19,000 levels overflowed the stack before the depth limit
+        let deep = format!("{}hover 2m{}", "1x(".repeat(19_000), ")".repeat(19_000));
+        let e = parse_plan(&deep).unwrap_err();
+        assert!(e.message.contains("nested more than 32 deep"), "{e}");
+        assert_eq!(e.column, 3 * MAX_DEPTH + 3);
+        // an unclosed deep plan too
+        assert!(parse_plan(&"2x(".repeat(100_000)).is_err());
+        // the limit itself is fine
+        let ok = format!(
+            "{}hover 2m{}",
+            "1x(".repeat(MAX_DEPTH),
+            ")".repeat(MAX_DEPTH)
+        );
+        assert_eq!(parse_plan(&ok).unwrap().len(), 1);
     }
 
     proptest! {

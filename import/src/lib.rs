@@ -132,6 +132,28 @@ pub enum ImportError {
         /// Whether current is logged (then an assumed voltage would do).
         has_current: bool,
     },
+    /// A header that names a column twice, or holds a control character (a NUL byte, …).
+    #[error("{source_name}, line {line}, column {column}: {message}")]
+    BadHeader {
+        /// The file.
+        source_name: String,
+        /// 1-based line of the header.
+        line: u64,
+        /// 1-based field number in the header.
+        column: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// A quoted field that is never closed.
+    #[error("{source_name}, line {line}, column {column}: a quote opens here and is never closed")]
+    UnterminatedQuote {
+        /// The file.
+        source_name: String,
+        /// 1-based line of the opening quote.
+        line: u64,
+        /// 1-based character column of the opening quote.
+        column: usize,
+    },
     /// A `valid` cell that is neither true nor false.
     #[error("{source_name}, line {line}: the valid column holds {value:?}; use true/false or 1/0")]
     BadFlag {
@@ -196,11 +218,18 @@ pub struct XySeries {
 }
 
 /// A CSV table: its header, its rows as text, the line of each row.
+///
+/// The cells are kept as one text buffer and an end offset per cell (not a `String` per cell),
+/// so that a table takes little more memory than its file.
 #[derive(Debug, Clone)]
 pub struct Table {
     source_name: String,
     header: Vec<String>,
-    rows: Vec<Vec<String>>,
+    /// Every cell's text, row after row.
+    cells: String,
+    /// End of each cell in `cells`; row `r`, column `c` is cell `r × width + c`.
+    ends: Vec<usize>,
+    n_rows: usize,
     lines: Vec<u64>,
     /// The `#` comment lines before the header, without the `#`.
     pub comments: Vec<String>,
@@ -277,6 +306,7 @@ impl Table {
         } else {
             bytes
         };
+        check_quotes(bytes, source_name)?;
         let comments = bytes
             .split(|&b| b == b'\n')
             .map(|l| String::from_utf8_lossy(l).trim().to_owned())
@@ -299,9 +329,18 @@ impl Table {
                 _ => e.to_string(),
             },
         };
+        let mut header_line = 1;
         let mut header: Vec<String> = if numeric_first {
             Vec::new()
         } else {
+            // the first line that is neither blank nor a comment
+            header_line = bytes
+                .split(|&b| b == b'\n')
+                .position(|l| {
+                    let t = l.trim_ascii();
+                    !t.is_empty() && !t.starts_with(b"#")
+                })
+                .map_or(1, |i| i as u64 + 1);
             rdr.headers()
                 .map_err(csv_err)?
                 .iter()
@@ -317,10 +356,12 @@ impl Table {
                 message: "no header row".into(),
             });
         }
-        let mut rows = Vec::new();
+        check_header(&header, header_line, source_name)?;
+        let mut cells = String::new();
+        let mut ends = Vec::new();
         let mut lines = Vec::new();
-        for rec in rdr.records() {
-            let rec = rec.map_err(csv_err)?;
+        let mut rec = csv::StringRecord::new();
+        while rdr.read_record(&mut rec).map_err(csv_err)? {
             if rec.iter().all(str::is_empty) {
                 continue;
             }
@@ -333,9 +374,15 @@ impl Table {
                 });
             }
             lines.push(line);
-            rows.push(rec.iter().map(str::to_owned).collect());
+            for field in &rec {
+                cells.push_str(field);
+                ends.push(cells.len());
+            }
         }
-        if rows.is_empty() {
+        cells.shrink_to_fit();
+        ends.shrink_to_fit();
+        lines.shrink_to_fit();
+        if lines.is_empty() {
             return Err(ImportError::Empty {
                 source_name: source_name.to_owned(),
                 message: "the header is followed by no data rows".into(),
@@ -344,10 +391,56 @@ impl Table {
         Ok(Self {
             source_name: source_name.to_owned(),
             header,
-            rows,
+            cells,
+            ends,
+            n_rows: lines.len(),
             lines,
             comments,
         })
+    }
+
+    /// The text of row `r`, column index `c`.
+    fn cell(&self, r: usize, c: usize) -> &str {
+        let i = r * self.header.len() + c;
+        let start = if i == 0 { 0 } else { self.ends[i - 1] };
+        &self.cells[start..self.ends[i]]
+    }
+
+    /// A numeric column over the valid rows in which an empty cell means "not recorded" (a
+    /// single-sample step has no standard deviation): `None` for an empty cell.
+    pub fn optional_column(&self, name: &str) -> Result<Vec<Option<f64>>, ImportError> {
+        let col = self.index(name)?;
+        let valid = self.valid_rows()?;
+        (0..self.n_rows)
+            .filter(|&r| valid[r])
+            .map(|r| {
+                if self.cell(r, col).is_empty() {
+                    Ok(None)
+                } else {
+                    self.number(r, col).map(Some)
+                }
+            })
+            .collect()
+    }
+
+    /// An uncertainty column (a standard deviation) over the valid rows: empty cells are `None`,
+    /// and every value must be a finite number ≥ 0.
+    pub fn uncertainty_column(&self, name: &str) -> Result<Vec<Option<f64>>, ImportError> {
+        let col = self.index(name)?;
+        let valid = self.valid_rows()?;
+        (0..self.n_rows)
+            .filter(|&r| valid[r])
+            .map(|r| {
+                if self.cell(r, col).is_empty() {
+                    return Ok(None);
+                }
+                let v = self.number(r, col)?;
+                if v < 0.0 {
+                    return Err(self.bad_value(r, name, "a standard deviation ≥ 0"));
+                }
+                Ok(Some(v))
+            })
+            .collect()
     }
 
     /// Column names, in file order.
@@ -357,12 +450,12 @@ impl Table {
 
     /// Number of data rows.
     pub fn len(&self) -> usize {
-        self.rows.len()
+        self.n_rows
     }
 
     /// True when the table has no data rows (never, for a parsed table).
     pub fn is_empty(&self) -> bool {
-        self.rows.is_empty()
+        self.n_rows == 0
     }
 
     /// Whether a column exists.
@@ -391,14 +484,14 @@ impl Table {
     }
 
     fn number(&self, row: usize, col: usize) -> Result<f64, ImportError> {
-        let text = &self.rows[row][col];
+        let text = self.cell(row, col);
         match text.parse::<f64>() {
             Ok(v) if v.is_finite() => Ok(v),
             _ => Err(ImportError::BadNumber {
                 source_name: self.source_name.clone(),
                 line: self.lines[row],
                 column: self.header[col].clone(),
-                value: text.clone(),
+                value: text.to_owned(),
             }),
         }
     }
@@ -413,7 +506,7 @@ impl Table {
         self.header
             .iter()
             .position(|h| h == column)
-            .map_or("", |c| self.rows[r][c].as_str())
+            .map_or("", |c| self.cell(r, c))
     }
 
     /// One cell as a finite number.
@@ -436,10 +529,10 @@ impl Table {
     /// Which rows count: all, or those whose `valid` column is true.
     pub(crate) fn valid_rows(&self) -> Result<Vec<bool>, ImportError> {
         let Ok(col) = self.index("valid") else {
-            return Ok(vec![true; self.rows.len()]);
+            return Ok(vec![true; self.n_rows]);
         };
-        (0..self.rows.len())
-            .map(|r| match self.rows[r][col].to_ascii_lowercase().as_str() {
+        (0..self.n_rows)
+            .map(|r| match self.cell(r, col).to_ascii_lowercase().as_str() {
                 "true" | "1" | "yes" => Ok(true),
                 "false" | "0" | "no" => Ok(false),
                 other => Err(ImportError::BadFlag {
@@ -455,7 +548,7 @@ impl Table {
     pub fn column(&self, name: &str) -> Result<Vec<f64>, ImportError> {
         let col = self.index(name)?;
         let valid = self.valid_rows()?;
-        (0..self.rows.len())
+        (0..self.n_rows)
             .filter(|&r| valid[r])
             .map(|r| self.number(r, col))
             .collect()
@@ -464,7 +557,7 @@ impl Table {
     /// The text of a column over all rows (for flags and labels).
     pub fn text_column(&self, name: &str) -> Result<Vec<&str>, ImportError> {
         let col = self.index(name)?;
-        Ok(self.rows.iter().map(|r| r[col].as_str()).collect())
+        Ok((0..self.n_rows).map(|r| self.cell(r, col)).collect())
     }
 
     fn resolve(&self, y: &YSource) -> Result<(Vec<usize>, String), ImportError> {
@@ -503,11 +596,11 @@ impl Table {
         };
         let valid = self.valid_rows()?;
         let mut out = XySeries {
-            x: Vec::with_capacity(self.rows.len()),
-            y: Vec::with_capacity(self.rows.len()),
+            x: Vec::with_capacity(self.n_rows),
+            y: Vec::with_capacity(self.n_rows),
             x_name: x.to_owned(),
             y_name,
-            lines: Vec::with_capacity(self.rows.len()),
+            lines: Vec::with_capacity(self.n_rows),
             skipped_invalid: 0,
         };
         for (r, &is_valid) in valid.iter().enumerate() {
@@ -526,13 +619,98 @@ impl Table {
         if out.x.is_empty() {
             return Err(ImportError::Empty {
                 source_name: self.source_name.clone(),
-                message: format!(
-                    "all {} rows are marked invalid: nothing to fit",
-                    out.skipped_invalid
-                ),
+                message: if out.skipped_invalid == 1 {
+                    "the only row is marked invalid: nothing to fit".to_owned()
+                } else {
+                    format!(
+                        "all {} rows are marked invalid: nothing to fit",
+                        out.skipped_invalid
+                    )
+                },
             });
         }
         Ok(out)
+    }
+}
+
+/// Refuses a header that names a column twice or holds a control character.
+fn check_header(header: &[String], line: u64, source_name: &str) -> Result<(), ImportError> {
+    let bad = |column: usize, message: String| ImportError::BadHeader {
+        source_name: source_name.to_owned(),
+        line,
+        column,
+        message,
+    };
+    for (i, h) in header.iter().enumerate() {
+        if let Some(c) = h.chars().find(|c| c.is_control()) {
+            return Err(bad(
+                i + 1,
+                format!(
+                    "the column name {h:?} holds the control character U+{:04X}; the file is corrupt or not text",
+                    u32::from(c)
+                ),
+            ));
+        }
+        if h.is_empty() {
+            continue;
+        }
+        if let Some(first) = header[..i].iter().position(|o| o == h) {
+            return Err(bad(
+                i + 1,
+                format!(
+                    "column {h:?} appears twice (also column {}); which one is meant is not clear",
+                    first + 1
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Refuses text whose last quoted field is never closed (the CSV reader would otherwise take the
+/// rest of the file as one cell). `#` comment lines are not CSV and are skipped.
+fn check_quotes(bytes: &[u8], source_name: &str) -> Result<(), ImportError> {
+    let mut in_quote: Option<(u64, usize)> = None;
+    let mut line = 1u64;
+    let mut line_start = 0usize;
+    let mut at_line_start = true;
+    let mut comment = false;
+    for (i, &b) in bytes.iter().enumerate() {
+        if at_line_start && in_quote.is_none() {
+            comment = b == b'#';
+        }
+        at_line_start = false;
+        match b {
+            b'\n' => {
+                line += 1;
+                line_start = i + 1;
+                at_line_start = true;
+                if in_quote.is_none() {
+                    comment = false;
+                }
+            }
+            b'"' if !comment => {
+                in_quote = match in_quote {
+                    Some(_) => None,
+                    None => {
+                        let column = String::from_utf8_lossy(&bytes[line_start..i])
+                            .chars()
+                            .count()
+                            + 1;
+                        Some((line, column))
+                    }
+                };
+            }
+            _ => {}
+        }
+    }
+    match in_quote {
+        Some((line, column)) => Err(ImportError::UnterminatedQuote {
+            source_name: source_name.to_owned(),
+            line,
+            column,
+        }),
+        None => Ok(()),
     }
 }
 
@@ -564,6 +742,54 @@ mod tests {
     }
 
     #[test]
+    fn a_column_named_twice_is_an_error() {
+        let e = Table::parse(b"# x\nthrust_g,power_w,thrust_g\n1,2,3\n", "d.csv").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "d.csv, line 2, column 3: column \"thrust_g\" appears twice (also column 1); which one is meant is not clear"
+        );
+        // several empty names (trailing commas) are fine
+        assert!(Table::parse(b"a,b,,\n1,2,,\n", "e.csv").is_ok());
+    }
+
+    #[test]
+    fn a_nul_byte_in_the_header_is_an_error() {
+        let e = Table::parse(b"thrust_g,power_w,val\0id\n1,2,false\n", "n.csv").unwrap_err();
+        let msg = e.to_string();
+        assert!(msg.starts_with("n.csv, line 1, column 3: "), "{msg}");
+        assert!(msg.contains("U+0000"), "{msg}");
+    }
+
+    #[test]
+    fn an_unterminated_quote_is_an_error_at_the_quote() {
+        let e = Table::parse(b"name,cells\nA,3\n\"B,4\n", "c.csv").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "c.csv, line 3, column 1: a quote opens here and is never closed"
+        );
+        // quotes in comments, doubled quotes and quoted commas are fine
+        let t = Table::parse(b"# the \"rig\nname,cells\n\"A, \"\"big\"\"\",3\n", "q.csv").unwrap();
+        assert_eq!(t.cell_text(0, "name"), "A, \"big\"");
+    }
+
+    #[test]
+    fn empty_uncertainties_are_missing_and_negative_ones_refused() {
+        let t = Table::parse(b"thrust_g,thrust_std_g\n1,\n2,0.5\n3,-1\n", "u.csv").unwrap();
+        let e = t.uncertainty_column("thrust_std_g").unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "u.csv, line 4, column \"thrust_std_g\": \"-1\" is not a standard deviation ≥ 0"
+        );
+        let t = Table::parse(b"thrust_g,thrust_std_g\n1,\n2,0.5\n", "u.csv").unwrap();
+        assert_eq!(
+            t.uncertainty_column("thrust_std_g").unwrap(),
+            [None, Some(0.5)]
+        );
+        let t = Table::parse(b"thrust_g,thrust_std_g\n1,NaN\n", "u.csv").unwrap();
+        assert!(t.uncertainty_column("thrust_std_g").is_err());
+    }
+
+    #[test]
     fn bom_comments_and_trailing_comma() {
         let t = Table::parse(
             "\u{feff}# rig: x\n# supply: 12.5 V\nTime (s),Thrust (gf),\n0.5, 12 ,\n1.0,13,\n"
@@ -573,6 +799,16 @@ mod tests {
         .unwrap();
         assert_eq!(t.comments, ["rig: x", "supply: 12.5 V"]);
         assert_eq!(t.column("Thrust (gf)").unwrap(), [12.0, 13.0]);
+    }
+
+    #[test]
+    fn a_single_invalid_row_is_not_one_rows() {
+        let t = Table::parse(b"thrust_g,power_w,valid\n1,2,false\n", "v.csv").unwrap();
+        let e = t.xy("thrust_g", &YSource::power_default()).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "v.csv: the only row is marked invalid: nothing to fit"
+        );
     }
 
     #[test]

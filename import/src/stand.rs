@@ -248,6 +248,58 @@ impl Table {
         seen
     }
 
+    /// Warnings for text columns (not mapped, not filtered on) that take several values over
+    /// `rows`: a table of several motors or propellers fitted as one curve is a mixture.
+    fn label_columns(&self, map: &ColumnMap, filters: &[RowFilter], rows: &[usize]) -> Vec<String> {
+        let mapped = [
+            &map.thrust,
+            &map.voltage,
+            &map.current,
+            &map.power,
+            &map.throttle,
+            &map.speed,
+            &map.torque,
+            &map.time,
+        ];
+        let mut out = Vec::new();
+        for name in self.header() {
+            if name.is_empty()
+                || name == "valid"
+                || mapped.iter().any(|m| m.as_deref() == Some(name.as_str()))
+                || filters.iter().any(|f| &f.column == name)
+            {
+                continue;
+            }
+            let mut values: Vec<&str> = Vec::new();
+            let mut label = true;
+            for &r in rows {
+                let t = self.cell_text(r, name);
+                if t.is_empty() || t.parse::<f64>().is_ok() {
+                    label = false;
+                    break;
+                }
+                if !values.contains(&t) {
+                    values.push(t);
+                    if values.len() > 50 {
+                        label = false;
+                        break;
+                    }
+                }
+            }
+            if label && values.len() > 1 {
+                let shown: Vec<String> = values.iter().take(6).map(|v| format!("{v:?}")).collect();
+                out.push(format!(
+                    "column {name:?} takes {} different values ({}{}): they are fitted as one curve; select one with --where \"{name}={}\"",
+                    values.len(),
+                    shown.join(", "),
+                    if values.len() > 6 { ", …" } else { "" },
+                    values[0]
+                ));
+            }
+        }
+        out
+    }
+
     fn converted(
         &self,
         column: &str,
@@ -312,11 +364,20 @@ impl Table {
                 },
             });
         }
+        // A column that is empty in every row was not logged (`hoverbench import` writes one for
+        // each quantity a log lacks): it is absent, not an error.
         let opt = |c: &Option<String>, q| -> Result<Option<Vec<f64>>, ImportError> {
             c.as_deref()
+                .filter(|c| rows.iter().any(|&r| !self.cell_text(r, c).is_empty()))
                 .map(|c| self.converted(c, q, &rows))
                 .transpose()
         };
+        if split_unit(thrust_col).1.is_none() {
+            notes.push(format!(
+                "column {thrust_col:?} names no unit: read as grams (g). If it holds newtons or kilograms, put the unit in the header, e.g. \"{thrust_col} (N)\""
+            ));
+        }
+        notes.extend(self.label_columns(map, filters, &rows));
         let mut thrust_g = self.converted(thrust_col, Quantity::Thrust, &rows)?;
         let voltage_v = opt(&map.voltage, Quantity::Voltage)?;
         let current_a = opt(&map.current, Quantity::Current)?;
@@ -483,10 +544,25 @@ impl StandLog {
             let spread = |c: &str, i: usize| -> Result<Option<f64>, ImportError> {
                 let r = m.rows[i];
                 if table.cell_text(r, c).is_empty() {
-                    Ok(None)
-                } else {
-                    table.cell_number(r, c).map(Some)
+                    return Ok(None);
                 }
+                let v = table.cell_number(r, c)?;
+                if v < 0.0 {
+                    return Err(table.bad_value(r, c, "a standard deviation ≥ 0"));
+                }
+                Ok(Some(v))
+            };
+            // sample counts: whole numbers (≥ `min`), `min` when the column is absent or empty
+            let count = |c: &str, i: usize, min: usize| -> Result<usize, ImportError> {
+                let r = m.rows[i];
+                if table.cell_text(r, c).is_empty() {
+                    return Ok(min);
+                }
+                let v = table.cell_number(r, c)?;
+                if v.fract() != 0.0 || v < min as f64 || v > 1e15 {
+                    return Err(table.bad_value(r, c, &format!("a whole number ≥ {min}")));
+                }
+                Ok(v as usize)
             };
             (0..m.thrust_g.len())
                 .map(|i| {
@@ -501,8 +577,8 @@ impl StandLog {
                         power_std_w: spread("power_std_w", i)?,
                         speed_rpm: at(&m.speed_rpm),
                         torque_nm: at(&m.torque_nm),
-                        samples: 1,
-                        transient_samples: 0,
+                        samples: count("samples", i, 1)?,
+                        transient_samples: count("transient_samples", i, 0)?,
                         line: m.lines[i],
                     })
                 })
@@ -690,6 +766,93 @@ mod tests {
             .measurements(&map, &["motor=C".parse().unwrap()])
             .unwrap_err();
         assert!(e.to_string().contains("motor=A; motor=B"), "{e}");
+    }
+
+    #[test]
+    fn a_thrust_column_without_a_unit_is_said_to_be_read_as_grams() {
+        let t = Table::parse(b"thrust,power_w\n1,2\n3,4\n", "t").unwrap();
+        let (map, _) = ColumnMap::detect(&t);
+        let m = t.measurements(&map, &[]).unwrap();
+        assert!(
+            m.notes
+                .iter()
+                .any(|n| n.contains("\"thrust\" names no unit: read as grams (g)")),
+            "{:?}",
+            m.notes
+        );
+        let t = Table::parse(b"thrust_g,power_w\n1,2\n", "t").unwrap();
+        let (map, _) = ColumnMap::detect(&t);
+        assert!(t.measurements(&map, &[]).unwrap().notes.is_empty());
+    }
+
+    #[test]
+    fn a_text_column_of_several_values_points_to_where() {
+        let t = Table::parse(
+            b"propeller,thrust_g,power_w,note\nA,1,2,x\nB,3,4,x\nA,5,6,x\n",
+            "p",
+        )
+        .unwrap();
+        let (map, _) = ColumnMap::detect(&t);
+        let m = t.measurements(&map, &[]).unwrap();
+        assert_eq!(m.notes.len(), 1, "{:?}", m.notes);
+        assert!(
+            m.notes[0].contains("\"propeller\" takes 2 different values (\"A\", \"B\")")
+                && m.notes[0].contains("--where \"propeller=A\""),
+            "{}",
+            m.notes[0]
+        );
+        // filtered on: no warning
+        let m = t
+            .measurements(&map, &["propeller=B".parse().unwrap()])
+            .unwrap();
+        assert!(m.notes.is_empty(), "{:?}", m.notes);
+    }
+
+    #[test]
+    fn sample_counts_are_whole_and_spreads_not_negative() {
+        for (cell, col) in [
+            ("-3", "samples"),
+            ("2.5", "samples"),
+            ("-0.1", "thrust_std_g"),
+        ] {
+            let (s, t) = if col == "samples" {
+                (cell, "0.1")
+            } else {
+                ("4", cell)
+            };
+            let csv = format!("thrust_g,thrust_std_g,power_w,samples\n1,0.1,2,4\n2,{t},3,{s}\n");
+            let e = StandLog::parse(csv.into_bytes(), "s.csv", &StandOptions::default())
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.starts_with(&format!(
+                    "s.csv, line 3, column \"{col}\": \"{cell}\" is not"
+                )),
+                "{e}"
+            );
+        }
+        let log = StandLog::parse(
+            b"thrust_g,thrust_std_g,power_w,samples\n1,,2,\n2,0.1,3,7\n".to_vec(),
+            "s.csv",
+            &StandOptions::default(),
+        )
+        .unwrap();
+        assert_eq!(log.steps[0].samples, 1);
+        assert_eq!(log.steps[1].samples, 7);
+        assert_eq!(log.steps[0].thrust_std_g, None);
+    }
+
+    #[test]
+    fn columns_empty_in_every_row_are_absent() {
+        let t = Table::parse(b"thrust_g,power_w,rpm,throttle\n1,2,,0.2\n3,4,,0.5\n", "e").unwrap();
+        let (map, _) = ColumnMap::detect(&t);
+        let m = t.measurements(&map, &[]).unwrap();
+        assert!(m.speed_rpm.is_none());
+        assert_eq!(m.throttle.unwrap(), [0.2, 0.5]);
+        // partly empty is still an error
+        let t = Table::parse(b"thrust_g,power_w,throttle\n1,2,\n3,4,0.5\n", "e").unwrap();
+        let (map, _) = ColumnMap::detect(&t);
+        assert!(t.measurements(&map, &[]).is_err());
     }
 
     #[test]

@@ -134,7 +134,10 @@ impl Draw for BatteryMassFigure {
             .margin_top(8)
             .x_label_area_size(60)
             .y_label_area_size(76)
-            .build_cartesian_2d(x0..x1, y0..y1)?;
+            .build_cartesian_2d(
+                render::axis("battery mass", x0, x1)?,
+                render::axis("endurance", y0, y1)?,
+            )?;
         let (xd, yd) = (tick_decimals(x1 - x0), tick_decimals(y1 - y0));
         let x_fmt = |v: &f64| tick(*v, xd);
         let y_fmt = |v: &f64| tick(*v, yd);
@@ -179,9 +182,14 @@ impl Draw for BatteryMassFigure {
 
         chart
             .draw_series(LineSeries::new(
-                self.curve
-                    .iter()
-                    .map(|p| (p.battery_mass_kg, p.endurance_min)),
+                render::thin(
+                    &self
+                        .curve
+                        .iter()
+                        .map(|p| (p.battery_mass_kg, p.endurance_min))
+                        .collect::<Vec<_>>(),
+                    render::CURVE_POINTS,
+                ),
                 colour::BLUE.stroke_width(3),
             ))?
             .label(format!(

@@ -182,7 +182,10 @@ impl Draw for CatalogueFigure {
             .margin_top(8)
             .x_label_area_size(60)
             .y_label_area_size(label_px + 24)
-            .build_cartesian_2d(0.0..x1, 0.0..n as f64)?;
+            .build_cartesian_2d(
+                render::axis("endurance", 0.0, x1)?,
+                render::axis("pack", 0.0, n as f64)?,
+            )?;
         let xd = tick_decimals(x1);
         let x_fmt = |v: &f64| tick(*v, xd);
         chart

@@ -30,6 +30,21 @@ pub enum ReportError {
         /// What the encoder said.
         message: String,
     },
+    /// An axis of a figure would span a range that cannot be drawn: not finite, empty, or so
+    /// large that the input must hold an absurd value.
+    #[error(
+        "{figure}: the {axis} axis would span {lo:.3e} to {hi:.3e}, which cannot be plotted; an input value is absurd (check the parameter file's coefficients and validity range and the sweep's values)"
+    )]
+    Unplottable {
+        /// File stem of the figure.
+        figure: &'static str,
+        /// Which axis.
+        axis: &'static str,
+        /// Lower end.
+        lo: f64,
+        /// Upper end.
+        hi: f64,
+    },
     /// A figure has nothing to draw.
     #[error("{figure}: {what}")]
     NoData {

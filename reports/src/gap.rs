@@ -105,7 +105,10 @@ impl Draw for GapVoltageFigure {
                 .margin(10)
                 .x_label_area_size(48)
                 .y_label_area_size(64)
-                .build_cartesian_2d(x0..x1.max(x0 + 1e-6), y0..y1)?;
+                .build_cartesian_2d(
+                    render::axis("x", x0, x1.max(x0 + 1e-6))?,
+                    render::axis("y", y0, y1)?,
+                )?;
             let (xd, yd) = (tick_decimals(x1 - x0), tick_decimals(y1 - y0));
             chart
                 .configure_mesh()
@@ -187,7 +190,10 @@ impl Draw for GapPhaseFigure {
             .margin(16)
             .x_label_area_size(48)
             .y_label_area_size(76)
-            .build_cartesian_2d(0.0..n as f64, lo..hi)?;
+            .build_cartesian_2d(
+                render::axis("x", 0.0, n as f64)?,
+                render::axis("y", lo, hi)?,
+            )?;
         let yd = tick_decimals(hi - lo);
         chart
             .configure_mesh()

@@ -158,22 +158,30 @@ fn model_section(input: &ReportInput) -> String {
     let (lo, hi) = c.valid_range_g();
     let mut t = Table::new(&["quantity", "value"]);
     t.row(&["rotors".to_owned(), m.platform.rotor_count.to_string()]);
-    t.row(&[
-        "structure mass m_S".to_owned(),
-        format!("{} kg", num(m.platform.structure_mass_kg, 3)),
-    ]);
-    t.row(&[
-        "avionics power p_A".to_owned(),
-        format!("{} W", num(m.platform.avionics_power_w, 3)),
-    ]);
-    t.row(&[
-        "payload m_P, p_P".to_owned(),
-        format!(
-            "{} kg, {} W",
-            num(input.payload.mass_kg, 3),
-            num(input.payload.power_w, 3)
-        ),
-    ]);
+    // A report of a parameter file alone has no platform (NaN): say so rather than print NaN.
+    if m.platform.structure_mass_kg.is_nan() || m.platform.avionics_power_w.is_nan() {
+        t.row(&[
+            "platform m_S, p_A".to_owned(),
+            "not given (--structure-mass, --avionics-power)".to_owned(),
+        ]);
+    } else {
+        t.row(&[
+            "structure mass m_S".to_owned(),
+            format!("{} kg", num(m.platform.structure_mass_kg, 3)),
+        ]);
+        t.row(&[
+            "avionics power p_A".to_owned(),
+            format!("{} W", num(m.platform.avionics_power_w, 3)),
+        ]);
+        t.row(&[
+            "payload m_P, p_P".to_owned(),
+            format!(
+                "{} kg, {} W",
+                num(input.payload.mass_kg, 3),
+                num(input.payload.power_w, 3)
+            ),
+        ]);
+    }
     t.row(&[
         "thrust curve".to_owned(),
         format!(
@@ -226,6 +234,9 @@ fn model_section(input: &ReportInput) -> String {
     format!("<h2>Model</h2>\n{}", t.finish())
 }
 
+/// Most measured steps listed in the report's table.
+const MAX_TABLE_STEPS: usize = 500;
+
 fn thrust_tables(f: &ThrustCurveFigure) -> String {
     let Some(s) = f.residual_summary() else {
         return "<p class=\"note\">No measured steps: the fitted curve alone is drawn.</p>\n"
@@ -238,6 +249,13 @@ fn thrust_tables(f: &ThrustCurveFigure) -> String {
         num(s.max_abs_w, 4),
         num(s.max_abs_at_g, 1)
     );
+    if s.n_points > MAX_TABLE_STEPS {
+        out.push_str(&format!(
+            "<p class=\"note\">The {} steps are too many for a table; they are in the sweep file.</p>\n",
+            s.n_points
+        ));
+        return out;
+    }
     let mut t = Table::new(&[
         "thrust (g)",
         "measured (W)",

@@ -35,6 +35,7 @@
 
 mod battery_mass;
 mod catalogue;
+mod curve_report;
 mod error;
 mod figure;
 mod font;
@@ -51,6 +52,7 @@ mod timeline;
 
 pub use battery_mass::{BATTERY_MASS_SAMPLES, BatteryMassFigure, MassEndurance};
 pub use catalogue::{CatalogueFigure, NamedBattery, RankedPack};
+pub use curve_report::write_curve_report;
 pub use error::ReportError;
 pub use figure::{Figure, WrittenFigure};
 pub use font::FONT_FAMILY;

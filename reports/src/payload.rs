@@ -220,12 +220,17 @@ impl PayloadFigure {
                 if seen.len() > 1 {
                     s.push_str("; ");
                 }
-                s.push_str(&format!(
-                    "{}: {} kg, {} Wh/kg",
-                    b.name,
-                    num(b.battery.mass_kg, 3),
-                    num(b.energy_density_wh_per_kg(), 0)
-                ));
+                // A name that already states mass and density is not followed by them again.
+                if b.name.contains("Wh/kg") {
+                    s.push_str(&b.name);
+                } else {
+                    s.push_str(&format!(
+                        "{}: {} kg, {} Wh/kg",
+                        b.name,
+                        num(b.battery.mass_kg, 3),
+                        num(b.energy_density_wh_per_kg(), 0)
+                    ));
+                }
             }
         }
         s
@@ -255,27 +260,45 @@ impl Draw for PayloadFigure {
         let area = render::titled(root, &self.title(), &self.subtitle())?;
         let mut x_hi = 0.0_f64;
         let mut y_hi = 0.0_f64;
+        let mut y_lo = f64::INFINITY;
         for s in &self.series {
             for &(m, t) in &s.points {
                 x_hi = x_hi.max(m);
                 y_hi = y_hi.max(t);
+                y_lo = y_lo.min(t);
             }
         }
         for c in &self.measured {
+            let sd = c.flight.endurance_std_min.unwrap_or(0.0);
             x_hi = x_hi.max(c.flight.payload_mass_kg);
-            y_hi =
-                y_hi.max(c.flight.endurance_mean_min + c.flight.endurance_std_min.unwrap_or(0.0));
+            y_hi = y_hi.max(c.flight.endurance_mean_min + sd);
+            y_lo = y_lo.min(c.flight.endurance_mean_min - sd);
         }
-        let x1 = if x_hi > 0.0 { x_hi * 1.25 } else { 0.1 };
-        let y1 = if y_hi > 0.0 { y_hi * 1.3 } else { 1.0 };
+        // Room on the right for the end labels; the endurance axis starts at zero unless the
+        // lines span a narrow band far above it (a short payload range), which would leave the
+        // plot mostly empty.
+        let x1 = if x_hi > 0.0 { x_hi * 1.15 } else { 0.1 };
+        let y0 = if y_lo.is_finite() && y_lo > 0.7 * y_hi {
+            (y_lo - 0.5 * (y_hi - y_lo).max(0.05 * y_hi)).max(0.0)
+        } else {
+            0.0
+        };
+        let y1 = if y_hi > 0.0 {
+            y_hi + 0.35 * (y_hi - y0)
+        } else {
+            1.0
+        };
         let mut chart = ChartBuilder::on(&area)
             .margin_left(16)
             .margin_right(28)
             .margin_top(8)
             .x_label_area_size(60)
             .y_label_area_size(76)
-            .build_cartesian_2d(-0.02 * x1..x1, 0.0..y1)?;
-        let (xd, yd) = (tick_decimals(x1), tick_decimals(y1));
+            .build_cartesian_2d(
+                render::axis("payload mass", -0.02 * x1, x1)?,
+                render::axis("endurance", y0, y1)?,
+            )?;
+        let (xd, yd) = (tick_decimals(x1), tick_decimals(y1 - y0));
         let x_fmt = |v: &f64| tick(*v, xd);
         let y_fmt = |v: &f64| tick(*v, yd);
         chart
@@ -296,14 +319,22 @@ impl Draw for PayloadFigure {
             let label = format!("{}, p_P = {} W", s.battery.name, num(s.payload_power_w, 1));
             if s.payload_power_w > 0.0 {
                 chart
-                    .draw_series(DashedLineSeries::new(s.points.clone(), 12, 6, style))?
+                    .draw_series(DashedLineSeries::new(
+                        render::thin(&s.points, render::CURVE_POINTS),
+                        12,
+                        6,
+                        style,
+                    ))?
                     .label(label)
                     .legend(move |(x, y)| {
                         DashedPathElement::new(vec![(x, y), (x + 24, y)], 8, 4, c.stroke_width(3))
                     });
             } else {
                 chart
-                    .draw_series(LineSeries::new(s.points.clone(), style))?
+                    .draw_series(LineSeries::new(
+                        render::thin(&s.points, render::CURVE_POINTS),
+                        style,
+                    ))?
                     .label(label)
                     .legend(move |(x, y)| {
                         PathElement::new(vec![(x, y), (x + 24, y)], c.stroke_width(3))
@@ -345,13 +376,13 @@ impl Draw for PayloadFigure {
                 .fold(t, f64::max);
             let c = colour::series(self.battery_index(&s.battery.name));
             chart.draw_series(DashedLineSeries::new(
-                vec![(limit, 0.0), (limit, top)],
+                vec![(limit, y0), (limit, top)],
                 6,
                 4,
                 c.stroke_width(2),
             ))?;
             chart.draw_series(std::iter::once(
-                EmptyElement::at((limit, 0.0))
+                EmptyElement::at((limit, y0))
                     + Text::new(
                         format!("m_X = {} kg", num(limit, 3)),
                         (-6, -8),

@@ -5,6 +5,7 @@ use std::path::Path;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
+use plotters_backend::DrawingErrorKind;
 
 use crate::ReportError;
 use crate::font::{FONT_FAMILY, ensure_registered};
@@ -27,10 +28,148 @@ fn draw_error<E: std::error::Error + Send + Sync>(
     figure: &'static str,
     format: &'static str,
 ) -> impl FnOnce(DrawingAreaErrorKind<E>) -> ReportError {
-    move |e| ReportError::Draw {
-        figure,
-        format,
-        message: e.to_string(),
+    move |e| {
+        if let DrawingAreaErrorKind::BackendError(DrawingErrorKind::FontError(inner)) = &e {
+            if let Some(u) = inner.downcast_ref::<Unplottable>() {
+                return ReportError::Unplottable {
+                    figure,
+                    axis: u.axis,
+                    lo: u.lo,
+                    hi: u.hi,
+                };
+            }
+        }
+        ReportError::Draw {
+            figure,
+            format,
+            message: e.to_string(),
+        }
+    }
+}
+
+/// Largest magnitude an axis may reach: beyond it the input holds an absurd value (a power of
+/// 1e300 W is a corrupt file, not a measurement) and the figure is refused, not drawn.
+pub(crate) const AXIS_LIMIT: f64 = 1e15;
+
+/// An axis range that cannot be drawn; carried through plotters' error type and turned into
+/// [`ReportError::Unplottable`] by the renderers.
+#[derive(Debug)]
+struct Unplottable {
+    axis: &'static str,
+    lo: f64,
+    hi: f64,
+}
+
+impl std::fmt::Display for Unplottable {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "the {} axis spans {:e}..{:e}",
+            self.axis, self.lo, self.hi
+        )
+    }
+}
+
+impl std::error::Error for Unplottable {}
+
+/// A linear `f64` axis from `lo` to `hi` whose tick placement terminates for every range (plotters'
+/// own loops forever on an infinite span). Ranges that cannot be drawn — not finite, empty, or
+/// reversed, or beyond ±[`AXIS_LIMIT`] — are refused; an empty span gets a margin with an error naming the axis.
+pub(crate) fn axis<E: std::error::Error + Send + Sync>(
+    name: &'static str,
+    lo: f64,
+    hi: f64,
+) -> Result<Axis, DrawingAreaErrorKind<E>> {
+    let ok = lo.is_finite()
+        && hi.is_finite()
+        && lo <= hi
+        && lo.abs() <= AXIS_LIMIT
+        && hi.abs() <= AXIS_LIMIT;
+    if ok {
+        // an empty (or numerically empty) span gets a margin around its value
+        let magnitude = hi.abs().max(lo.abs());
+        if hi - lo <= magnitude * 1e-12 {
+            let pad = (magnitude * 1e-6).max(0.5);
+            return Ok(Axis {
+                lo: lo - pad,
+                hi: hi + pad,
+            });
+        }
+        Ok(Axis { lo, hi })
+    } else {
+        Err(DrawingAreaErrorKind::BackendError(
+            DrawingErrorKind::FontError(Box::new(Unplottable { axis: name, lo, hi })),
+        ))
+    }
+}
+
+/// A linear axis (see [`axis`]).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Axis {
+    lo: f64,
+    hi: f64,
+}
+
+impl Axis {
+    /// Tick values: multiples of 1, 2 or 5 × 10ⁿ, at most `max_points` of them; a bounded loop.
+    fn ticks(&self, max_points: usize) -> Vec<f64> {
+        let span = self.hi - self.lo;
+        if max_points == 0 || !(span.is_finite() && span > 0.0) {
+            return Vec::new();
+        }
+        let raw = span / max_points as f64;
+        let magnitude = 10f64.powf(raw.log10().floor());
+        let step = [1.0, 2.0, 5.0, 10.0]
+            .iter()
+            .map(|m| m * magnitude)
+            .find(|s| span / s <= max_points as f64)
+            .unwrap_or(10.0 * magnitude);
+        if !(step.is_finite() && step > 0.0) {
+            return Vec::new();
+        }
+        let first = (self.lo / step).ceil();
+        let n = ((self.hi / step).floor() - first).max(-1.0);
+        let n = if n.is_finite() {
+            (n as usize + 1).min(max_points + 1)
+        } else {
+            0
+        };
+        (0..n)
+            .map(|i| (first + i as f64) * step)
+            // -0 and 1e-17 are 0
+            .map(|v| if v.abs() < step * 1e-9 { 0.0 } else { v })
+            .filter(|v| *v >= self.lo - step * 1e-9 && *v <= self.hi + step * 1e-9)
+            .collect()
+    }
+}
+
+impl plotters::coord::ranged1d::Ranged for Axis {
+    type FormatOption = plotters::coord::ranged1d::DefaultFormatting;
+    type ValueType = f64;
+
+    fn map(&self, v: &f64, limit: (i32, i32)) -> i32 {
+        // as plotters maps, with far-outside points clamped (drawing clips them) and NaN mapped
+        // to the start
+        let fraction = (v - self.lo) / (self.hi - self.lo);
+        let length = f64::from(limit.1 - limit.0);
+        let offset = if length >= 0.0 {
+            (length * fraction + 1e-3).floor()
+        } else {
+            (length * fraction - 1e-3).ceil()
+        };
+        if offset.is_nan() {
+            limit.0
+        } else {
+            limit.0 + offset.clamp(-1e6, 1e6) as i32
+        }
+    }
+
+    fn key_points<H: plotters::coord::ranged1d::KeyPointHint>(&self, hint: H) -> Vec<f64> {
+        self.ticks(hint.max_num_points())
+    }
+
+    fn range(&self) -> std::ops::Range<f64> {
+        self.lo..self.hi
     }
 }
 
@@ -230,6 +369,23 @@ pub(crate) fn tick(v: f64, decimals: usize) -> String {
     }
 }
 
+/// Points of a smooth curve to draw as a thick polyline: at most `max`, evenly spaced through
+/// `points`, the first and last kept. Pixel coordinates are whole numbers, so a curve drawn
+/// through hundreds of points a few pixels apart becomes a staircase of one-pixel jumps; fewer,
+/// longer segments stay straight and smooth.
+pub(crate) fn thin(points: &[(f64, f64)], max: usize) -> Vec<(f64, f64)> {
+    if points.len() <= max || max < 2 {
+        return points.to_vec();
+    }
+    let last = points.len() - 1;
+    (0..max)
+        .map(|i| points[(i * last + (max - 1) / 2) / (max - 1)])
+        .collect()
+}
+
+/// Points drawn along a smooth curve (see [`thin`]).
+pub(crate) const CURVE_POINTS: usize = 48;
+
 /// Horizontal anchor for a label beside a point at `fraction` (0 = left, 1 = right) of the plot
 /// width, so that the label stays inside the plot.
 pub(crate) fn h_anchor(fraction: f64) -> HPos {
@@ -258,10 +414,61 @@ mod tests {
     }
 
     #[test]
+    fn ticks_terminate_and_stay_few_for_any_range() {
+        for (lo, hi) in [
+            (0.0, 1.0),
+            (-3.0, 7.5),
+            (0.0, 1e15),
+            (-1e15, 1e15),
+            (1e14, 1e14 + 1.0),
+            (0.0, 1e-300),
+            (1e-310, 2e-310),
+        ] {
+            let a = Axis { lo, hi };
+            let t = a.ticks(10);
+            assert!(t.len() <= 11, "{lo}..{hi}: {t:?}");
+            assert!(t.iter().all(|v| *v >= lo && *v <= hi), "{lo}..{hi}: {t:?}");
+        }
+        // infinite or NaN spans give no ticks instead of a loop
+        for (lo, hi) in [(-1e308, 1e308), (0.0, f64::INFINITY), (f64::NAN, 1.0)] {
+            assert!(Axis { lo, hi }.ticks(10).is_empty());
+        }
+        assert_eq!(Axis { lo: 0.0, hi: 1.0 }.ticks(10).len(), 11);
+        assert_eq!(
+            Axis { lo: 0.0, hi: 10.0 }.ticks(5),
+            [0.0, 2.0, 4.0, 6.0, 8.0, 10.0]
+        );
+    }
+
+    #[test]
+    fn absurd_ranges_are_refused() {
+        type E = std::io::Error;
+        assert!(axis::<E>("x", 0.0, 1e300).is_err());
+        assert!(axis::<E>("x", 0.0, f64::INFINITY).is_err());
+        assert!(axis::<E>("x", 2.0, 1.0).is_err());
+        assert!(axis::<E>("x", 1.0, 1.0).is_ok());
+        assert!(axis::<E>("x", f64::NAN, 1.0).is_err());
+        assert!(axis::<E>("x", -3.0, 120.0).is_ok());
+    }
+
+    #[test]
     fn numbers_never_show_a_negative_zero() {
         assert_eq!(num(-0.0001, 2), "0.00");
         assert_eq!(num(-0.01, 2), "-0.01");
         assert_eq!(num(13.826, 2), "13.83");
+    }
+
+    #[test]
+    fn thinned_curves_keep_their_ends() {
+        let pts: Vec<(f64, f64)> = (0..=300)
+            .map(|i| (f64::from(i), f64::from(i * i)))
+            .collect();
+        let t = thin(&pts, 48);
+        assert_eq!(t.len(), 48);
+        assert_eq!(t[0], pts[0]);
+        assert_eq!(*t.last().unwrap(), pts[300]);
+        assert!(t.windows(2).all(|w| w[0].0 < w[1].0));
+        assert_eq!(thin(&pts[..10], 48).len(), 10);
     }
 
     #[test]

@@ -27,8 +27,9 @@ impl Sweep {
     /// the rows not marked invalid, and `power_std_w` when the table has it.
     pub fn from_table(table: &import::Table, source: &str) -> Result<Self, ReportError> {
         let xy = table.xy("thrust_g", &import::YSource::power_default())?;
+        // An empty cell (a single-sample step, as `hoverbench import` writes) is no spread.
         let std = if table.has("power_std_w") {
-            Some(table.column("power_std_w")?)
+            Some(table.uncertainty_column("power_std_w")?)
         } else {
             None
         };
@@ -39,7 +40,7 @@ impl Sweep {
                 .map(|(i, (&thrust_g, &power_w))| MeasuredStep {
                     thrust_g,
                     power_w,
-                    power_std_w: std.as_ref().and_then(|s| s.get(i).copied()),
+                    power_std_w: std.as_ref().and_then(|s| s.get(i).copied().flatten()),
                 })
                 .collect();
         Ok(Self {

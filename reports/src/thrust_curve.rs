@@ -75,6 +75,48 @@ pub struct ResidualSummary {
 /// Samples drawn along a fitted curve.
 const CURVE_SAMPLES: usize = 240;
 
+/// Most measured steps drawn one by one. A longer sweep (a raw log of millions of rows) is drawn
+/// decimated: in each of [`DRAWN_BINS`] thrust bins, its lowest and highest point, so that the
+/// envelope and every outlier stay visible and the files stay small.
+pub const MAX_DRAWN_STEPS: usize = 2000;
+/// Thrust bins of a decimated sweep (about one per pixel column of the plot).
+pub const DRAWN_BINS: usize = 800;
+
+/// The points to draw: all of them when there are at most [`MAX_DRAWN_STEPS`], else the lowest
+/// and highest `y` in each of [`DRAWN_BINS`] bins of `x`, in bin order.
+fn decimate<T: Copy>(items: &[T], x: impl Fn(&T) -> f64, y: impl Fn(&T) -> f64) -> Vec<T> {
+    if items.len() <= MAX_DRAWN_STEPS {
+        return items.to_vec();
+    }
+    let (lo, hi) = items
+        .iter()
+        .map(&x)
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+    let span = hi - lo;
+    let mut bins: Vec<Option<(T, T)>> = vec![None; DRAWN_BINS];
+    for it in items {
+        let f = if span > 0.0 { (x(it) - lo) / span } else { 0.0 };
+        let b = ((f * DRAWN_BINS as f64) as usize).min(DRAWN_BINS - 1);
+        bins[b] = Some(match bins[b] {
+            None => (*it, *it),
+            Some((min, max)) => (
+                if y(it) < y(&min) { *it } else { min },
+                if y(it) > y(&max) { *it } else { max },
+            ),
+        });
+    }
+    let mut out = Vec::with_capacity(2 * DRAWN_BINS);
+    for (min, max) in bins.into_iter().flatten() {
+        out.push(min);
+        if y(&max) != y(&min) || x(&max) != x(&min) {
+            out.push(max);
+        }
+    }
+    out
+}
+
 impl ThrustCurveFigure {
     /// `measured − fitted` for each measured step inside the curve's range, with its thrust.
     pub fn residuals(&self) -> Vec<(MeasuredStep, f64)> {
@@ -127,6 +169,11 @@ impl ThrustCurveFigure {
         );
         if let Some(src) = &self.source {
             s.push_str(&format!(", {} steps from {src}", self.measured.len()));
+        }
+        if self.measured.len() > MAX_DRAWN_STEPS {
+            s.push_str(&format!(
+                "\nsteps drawn as the lowest and highest of each of {DRAWN_BINS} thrust bins"
+            ));
         }
         s
     }
@@ -201,7 +248,10 @@ impl Draw for ThrustCurveFigure {
             .margin_top(8)
             .x_label_area_size(if lower.is_some() { 36 } else { 60 })
             .y_label_area_size(84)
-            .build_cartesian_2d(x0..x1, y0..y1)?;
+            .build_cartesian_2d(
+                render::axis("thrust", x0, x1)?,
+                render::axis("power", y0, y1)?,
+            )?;
         let (xd, yd) = (tick_decimals(x1 - x0), tick_decimals(y1 - y0));
         let x_fmt = |v: &f64| tick(*v, xd);
         let y_fmt = |v: &f64| tick(*v, yd);
@@ -276,7 +326,8 @@ impl Draw for ThrustCurveFigure {
 
         if !self.measured.is_empty() {
             let has_std = self.measured.iter().any(|m| m.power_std_w.is_some());
-            chart.draw_series(self.measured.iter().filter_map(|m| {
+            let shown = decimate(&self.measured, |m| m.thrust_g, |m| m.power_w);
+            chart.draw_series(shown.iter().filter_map(|m| {
                 m.power_std_w.map(|s| {
                     ErrorBar::new_vertical(
                         m.thrust_g,
@@ -290,7 +341,7 @@ impl Draw for ThrustCurveFigure {
             }))?;
             chart
                 .draw_series(
-                    self.measured
+                    shown
                         .iter()
                         .map(|m| Circle::new((m.thrust_g, m.power_w), 4, colour::INK.filled())),
                 )?
@@ -317,7 +368,10 @@ impl Draw for ThrustCurveFigure {
                 .margin_top(10)
                 .x_label_area_size(60)
                 .y_label_area_size(84)
-                .build_cartesian_2d(x0..x1, -r..r)?;
+                .build_cartesian_2d(
+                    render::axis("thrust", x0, x1)?,
+                    render::axis("residual", -r, r)?,
+                )?;
             chart
                 .configure_mesh()
                 .x_desc("thrust per rotor (g)")
@@ -334,6 +388,7 @@ impl Draw for ThrustCurveFigure {
                 vec![(x0, 0.0), (x1, 0.0)],
                 colour::BLUE.stroke_width(2),
             ))?;
+            let residuals = decimate(&residuals, |(m, _)| m.thrust_g, |(_, r)| *r);
             chart.draw_series(residuals.iter().filter_map(|(m, r)| {
                 m.power_std_w.map(|s| {
                     ErrorBar::new_vertical(
@@ -353,5 +408,27 @@ impl Draw for ThrustCurveFigure {
             )?;
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn long_sweeps_keep_each_bins_extremes() {
+        let items: Vec<(f64, f64)> = (0..100_000)
+            .map(|i| (i as f64 * 0.01, (i as f64 * 0.37).sin()))
+            .collect();
+        let d = decimate(&items, |p| p.0, |p| p.1);
+        assert!(d.len() <= 2 * DRAWN_BINS, "{}", d.len());
+        // the overall extremes and the ends survive
+        let max = d.iter().map(|p| p.1).fold(f64::MIN, f64::max);
+        let all_max = items.iter().map(|p| p.1).fold(f64::MIN, f64::max);
+        assert_eq!(max, all_max);
+        assert!(d.iter().any(|p| p.0 >= 999.0));
+        assert!(d.iter().any(|p| p.0 <= 1.25));
+        // short sweeps are drawn whole
+        assert_eq!(decimate(&items[..50], |p| p.0, |p| p.1).len(), 50);
     }
 }

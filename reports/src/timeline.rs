@@ -105,14 +105,7 @@ impl TimelineFigure {
 
     fn shade<DB: DrawingBackend>(
         &self,
-        chart: &mut ChartContext<
-            '_,
-            DB,
-            Cartesian2d<
-                plotters::coord::types::RangedCoordf64,
-                plotters::coord::types::RangedCoordf64,
-            >,
-        >,
+        chart: &mut ChartContext<'_, DB, Cartesian2d<render::Axis, render::Axis>>,
         y0: f64,
         y1: f64,
         legend: bool,
@@ -186,7 +179,7 @@ impl Draw for TimelineFigure {
                 .margin_top(8)
                 .x_label_area_size(if top { 36 } else { 60 })
                 .y_label_area_size(76)
-                .build_cartesian_2d(0.0..x1, 0.0..y1)?;
+                .build_cartesian_2d(render::axis("time", 0.0, x1)?, render::axis("y", 0.0, y1)?)?;
             let yd = tick_decimals(y1);
             let y_fmt = |v: &f64| tick(*v, yd);
             let mut mesh = chart.configure_mesh();

@@ -117,6 +117,10 @@ pub fn run(args: Args) -> Result<()> {
             .collect(),
         written,
     };
+    // What the reader assumed or noticed goes to stderr too, where a script's user sees it.
+    for n in &rep.notes {
+        eprintln!("warning: {n}");
+    }
     if args.json {
         return output::print_json(&rep);
     }

@@ -95,3 +95,62 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::RigGapEval(a) => rig_gap_eval::run(a),
     }
 }
+
+/// Mass options whose bare numbers are kilograms.
+const MASS_FLAGS: [&str; 5] = [
+    "--structure-mass",
+    "--battery-mass",
+    "--payload-mass",
+    "--takeoff-mass",
+    "--thrust-limit",
+];
+
+/// Heaviest bare mass, kg, taken at its word when a command fails: beyond it the number was more
+/// likely meant in grams.
+const PLAUSIBLE_BARE_MASS_KG: f64 = 20.0;
+
+/// After a failed command: for each mass option given as a bare number too heavy to be meant in
+/// kg (`--structure-mass 431`), a hint that bare numbers are kg and how to write grams.
+pub fn mass_unit_hints(args: impl IntoIterator<Item = String>) -> Vec<String> {
+    let args: Vec<String> = args.into_iter().collect();
+    let mut hints = Vec::new();
+    for (i, a) in args.iter().enumerate() {
+        let (flag, value) = match a.split_once('=') {
+            Some((f, v)) => (f, Some(v.to_owned())),
+            None => (a.as_str(), args.get(i + 1).cloned()),
+        };
+        if !MASS_FLAGS.contains(&flag) {
+            continue;
+        }
+        let Some(value) = value else { continue };
+        if let Ok(v) = value.trim().parse::<f64>() {
+            if v > PLAUSIBLE_BARE_MASS_KG {
+                hints.push(format!(
+                    "{flag} {value} is read as {value} kg (a bare number is kg); for grams write {flag} {value}g"
+                ));
+            }
+        }
+    }
+    hints
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bare_heavy_masses_get_a_unit_hint() {
+        let args = |s: &str| s.split(' ').map(str::to_owned).collect::<Vec<_>>();
+        let h = mass_unit_hints(args("estimate --structure-mass 431 --battery-mass=144"));
+        assert_eq!(
+            h,
+            [
+                "--structure-mass 431 is read as 431 kg (a bare number is kg); for grams write --structure-mass 431g",
+                "--battery-mass 144 is read as 144 kg (a bare number is kg); for grams write --battery-mass 144g",
+            ]
+        );
+        assert!(
+            mass_unit_hints(args("estimate --structure-mass 0.431 --battery-mass 144g")).is_empty()
+        );
+    }
+}

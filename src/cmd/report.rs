@@ -44,11 +44,11 @@ pub struct Args {
     #[arg(long, value_name = "CSV")]
     flights: Option<PathBuf>,
     /// m_S: structure mass without battery (kg; or e.g. 431g) [default: the session's
-    /// platform.toml].
-    #[arg(long, value_name = "MASS", value_parser = output::mass_kg, allow_negative_numbers = true)]
+    /// platform.toml]. Without a platform only Fig. 3 is drawn.
+    #[arg(long, value_name = "MASS", value_parser = output::mass_kg, allow_negative_numbers = true, requires = "avionics_power")]
     structure_mass: Option<f64>,
     /// p_A: avionics power (W) [default: the session's platform.toml].
-    #[arg(long, value_name = "POWER", value_parser = output::power_w, allow_negative_numbers = true)]
+    #[arg(long, value_name = "POWER", value_parser = output::power_w, allow_negative_numbers = true, requires = "structure_mass")]
     avionics_power: Option<f64>,
     /// m_P: payload mass for Fig. 4, Fig. 5 and the mission (kg).
     #[arg(long, value_name = "MASS", value_parser = output::mass_kg, allow_negative_numbers = true, default_value = "0")]
@@ -124,6 +124,46 @@ pub fn session_figures(
 }
 
 fn write(args: &Args) -> Result<Vec<String>> {
+    let written_by = format!(
+        "written {} by hoverbench {}",
+        jiff::Timestamp::now(),
+        env!("CARGO_PKG_VERSION")
+    );
+    // The platform: the flags, else the session's platform.toml, else Fig. 3 alone.
+    let stored = if args.input.is_dir() {
+        reports::session::SessionPlatform::load(&args.input)?
+    } else {
+        None
+    };
+    let (Some(structure_mass_kg), Some(avionics_power_w)) = (
+        args.structure_mass.or(stored.map(|p| p.structure_mass_kg)),
+        args.avionics_power.or(stored.map(|p| p.avionics_power_w)),
+    ) else {
+        // A params file alone: Fig. 3 and the HTML; everything else needs the platform.
+        let needs_platform = [
+            (args.catalogue.is_some(), "--catalogue"),
+            (args.plan.is_some(), "--plan"),
+            (args.flights.is_some(), "--flights"),
+            (args.battery_mass.is_some(), "--battery-mass"),
+            (args.energy_density.is_some(), "--energy-density"),
+        ];
+        if let Some((_, flag)) = needs_platform.iter().find(|(given, _)| *given) {
+            anyhow::bail!(
+                "{flag} needs the platform: give --structure-mass and --avionics-power (without them only Fig. 3 is drawn)"
+            );
+        }
+        let files = reports::write_curve_report(
+            &args.input,
+            args.sweep.as_deref(),
+            &args.output,
+            &written_by,
+        )?;
+        return Ok(files
+            .paths()
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect());
+    };
     if args.plan.is_some() && args.battery_mass.is_none() && args.catalogue.is_none() {
         anyhow::bail!(
             "--plan needs a battery: give --battery-mass and --battery-energy-density, or a --catalogue with a pack within the payload limit"
@@ -136,29 +176,38 @@ fn write(args: &Args) -> Result<Vec<String>> {
         catalogue: args.catalogue.clone(),
         plan: args.plan.clone(),
         flights: args.flights.clone(),
-        structure_mass_kg: args.structure_mass,
-        avionics_power_w: args.avionics_power,
+        structure_mass_kg: Some(structure_mass_kg),
+        avionics_power_w: Some(avionics_power_w),
         payload: Payload {
             mass_kg: args.payload_mass,
             power_w: args.payload_power,
         },
         thrust_limit_kg: args.thrust_limit,
         energy_density_wh_per_kg: args.energy_density,
-        battery: args.battery_mass.zip(args.battery_energy_density),
+        // 144g is 0.144 kg, not 0.14400000000000002 in the battery's name
+        battery: args
+            .battery_mass
+            .map(round_decimal)
+            .zip(args.battery_energy_density.map(round_decimal)),
         payload_powers_w: args.payload_powers.clone(),
         eq8: match args.eq8 {
             Eq8::Consistent => Eq8Form::Consistent,
             Eq8::Printed => Eq8Form::PrintedHours,
         },
-        written_by: format!(
-            "written {} by hoverbench {}",
-            jiff::Timestamp::now(),
-            env!("CARGO_PKG_VERSION")
-        ),
+        written_by,
     })?;
     Ok(files
         .paths()
         .iter()
         .map(|p| p.display().to_string())
         .collect())
+}
+
+/// `v` with the binary noise of a unit conversion removed (12 significant digits).
+fn round_decimal(v: f64) -> f64 {
+    if v == 0.0 || !v.is_finite() {
+        return v;
+    }
+    let scale = 10f64.powi(11 - v.abs().log10().floor() as i32);
+    (v * scale).round() / scale
 }

@@ -19,6 +19,9 @@ pub struct Args {
     /// Supply voltage at start, V (defaults to the preset's).
     #[arg(long)]
     pub supply_v: Option<f64>,
+    /// Print the port and the rig's settings as one JSON line (then serve as without it).
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// Starts the simulated rig and serves it until interrupted.
@@ -51,7 +54,18 @@ pub fn run(args: Args) -> anyhow::Result<()> {
     )
     .context("starting the simulated rig on a pseudo-terminal")?;
     let mut out = std::io::stdout().lock();
-    writeln!(out, "{}", rig.path().display())?;
+    if args.json {
+        let line = serde_json::json!({
+            "port": rig.path().display().to_string(),
+            "preset": preset.name,
+            "supply_v": preset.supply.voltage_v,
+            "speed": args.speed,
+            "seed": args.seed,
+        });
+        writeln!(out, "{line}")?;
+    } else {
+        writeln!(out, "{}", rig.path().display())?;
+    }
     out.flush()?;
     drop(out);
     eprintln!(
