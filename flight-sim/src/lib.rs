@@ -161,9 +161,9 @@ pub fn generate(family: &Family, effect: &Withheld, seed: u64) -> GeneratedSet {
                     EffectKind::DrainingPayload => {
                         let mut kept = p.clone();
                         kept.payload_mass_kg += effect.magnitude;
-                        simulate(family, &robot, &kept, &Withheld::NONE, s).endurance_s
+                        simulate::run(family, &robot, &kept, &Withheld::NONE, s, false).endurance_s
                     }
-                    _ => simulate(family, &robot, p, &Withheld::NONE, s).endurance_s,
+                    _ => simulate::run(family, &robot, p, &Withheld::NONE, s, false).endurance_s,
                 };
                 endurance_s.push((p.name.clone(), with.endurance_s, without));
                 with

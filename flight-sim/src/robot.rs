@@ -79,11 +79,12 @@ fn nonneg_fit(rows: &[([f64; 4], f64)]) -> Option<([f64; 4], f64)> {
                 ok = false;
                 break;
             }
-            for r in 0..m {
+            let pivot = a[c].clone();
+            for (r, row) in a.iter_mut().enumerate() {
                 if r != c {
-                    let f = a[r][c] / a[c][c];
-                    for k in c..=m {
-                        a[r][k] -= f * a[c][k];
+                    let f = row[c] / pivot[c];
+                    for (x, p) in row.iter_mut().zip(&pivot).skip(c) {
+                        *x -= f * p;
                     }
                 }
             }
@@ -245,7 +246,7 @@ impl Robot {
     pub fn of(variant: RobotVariant, seed: u64) -> Self {
         let mut r = Self::paper();
         if variant == RobotVariant::Varied {
-            let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x726f_626f_74);
+            let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0072_6f62_6f74);
             let mut u = |lo: f64, hi: f64| lo + (hi - lo) * rng.random::<f64>();
             r.structure_mass_kg *= u(0.9, 1.1);
             r.logged_structure_mass_kg = r.structure_mass_kg * u(0.99, 1.01);

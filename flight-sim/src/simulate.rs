@@ -100,6 +100,18 @@ pub fn simulate(
     effect: &Withheld,
     seed: u64,
 ) -> SimFlight {
+    run(family, robot, plan, effect, seed, true)
+}
+
+/// Simulates a flight; `log: false` skips the log (only the endurance is wanted).
+pub(crate) fn run(
+    family: &Family,
+    robot: &Robot,
+    plan: &FlightPlan,
+    effect: &Withheld,
+    seed: u64,
+    log: bool,
+) -> SimFlight {
     let mut pack_rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7061_636b);
     let mut noise_rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6e6f_6973);
     let mut ctrl_rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6374_726c);
@@ -140,10 +152,15 @@ pub fn simulate(
     let cutoff_v = f64::from(chem.cells()) * chem.cutoff_cell_v();
     let idle_w = robot.avionics_power_w + plan.payload_power_w;
 
-    // Integration step: the log interval, at most 0.5 s.
+    // Integration step: the log interval within 0.1–0.5 s; faster logs sample the state of
+    // the step they fall in (with their own noise).
     let log_dt = 1.0 / sensor.rate_hz;
-    let sub = (log_dt / 0.5).ceil().max(1.0) as usize;
-    let dt = log_dt / sub as f64;
+    let dt = if log_dt >= 0.5 {
+        log_dt / (log_dt / 0.5).ceil()
+    } else {
+        log_dt.max(0.1)
+    };
+    let mut tick = 0u64;
 
     let mut csv = String::with_capacity(64 * 4096);
     csv.push_str("time_s,voltage_v");
@@ -165,7 +182,6 @@ pub fn simulate(
     let a_ctrl = (-dt / ctrl_tau).exp();
     let mut v_filtered = f64::NAN;
     let mut last_v = pack.cells * pack.ocv.at(soc);
-    let mut step = 0usize;
     let mut drop_left = 0usize;
     let mut ended = false;
 
@@ -255,7 +271,9 @@ pub fn simulate(
             }
             last_v = v;
             // Log.
-            if step.is_multiple_of(sub) {
+            while log && (tick as f64) * log_dt < t + dt - 1e-9 {
+                let tick_s = tick as f64 * log_dt;
+                tick += 1;
                 let mut keep = true;
                 if drop_left > 0 {
                     drop_left -= 1;
@@ -268,7 +286,7 @@ pub fn simulate(
                 }
                 if keep || samples == 0 {
                     let jitter = (sensor.jitter_frac * normal(&mut noise_rng)).clamp(-0.3, 0.3);
-                    let ts = t + jitter * log_dt;
+                    let ts = tick_s + jitter * log_dt;
                     let q = sensor.v_quantum;
                     let vq = ((v_meas + sensor.v_noise * normal(&mut noise_rng)) / q).round() * q;
                     let _ = write!(csv, "{ts:.3},{vq:.3}");
@@ -320,7 +338,6 @@ pub fn simulate(
             }
             t += dt;
             leg_t += dt;
-            step += 1;
         }
     }
     let _ = airborne_s;

@@ -32,8 +32,8 @@ use std::path::Path;
 
 use estimator::PolyCurve;
 use flight_sim::{
-    Chemistry, EffectKind, Family, GeneratedSet, Logging, RigSweep, RobotVariant, SimFlight,
-    draw_effect, generate,
+    Chemistry, EffectKind, Family, Logging, RigSweep, RobotVariant, SimFlight, Truth, draw_effect,
+    generate,
 };
 use flightlog::{Flight, FlightMeta, LogFormat};
 use serde::Serialize;
@@ -207,9 +207,9 @@ impl ScenarioResult {
 }
 
 /// Scores an outcome against the truth.
-fn score(set: &GeneratedSet, family: &Family, o: &adapter::Outcome) -> ScenarioResult {
-    let kind = set.truth.effect.kind;
-    let impact = set.truth.endurance_impact_pct();
+pub fn score(truth: &Truth, family: &Family, o: &adapter::Outcome) -> ScenarioResult {
+    let kind = truth.effect.kind;
+    let impact = truth.endurance_impact_pct();
     let top = o
         .shares
         .iter()
@@ -234,13 +234,13 @@ fn score(set: &GeneratedSet, family: &Family, o: &adapter::Outcome) -> ScenarioR
         verdict.push_str(" (unexplained)");
     }
     ScenarioResult {
-        seed: set.truth.seed,
+        seed: truth.seed,
         family: family.name(),
         tuning: is_tuning_family(family),
         truth: kind.name().to_owned(),
         outside_library: outside,
-        magnitude: set.truth.effect.magnitude,
-        unit: set.truth.unit.to_owned(),
+        magnitude: truth.effect.magnitude,
+        unit: truth.unit.to_owned(),
         impact_pct: impact,
         verdict,
         top_effect: top,
@@ -270,7 +270,7 @@ pub fn run_scenario(seed: u64, families: &[Family]) -> Result<ScenarioResult, Ev
         set.rig.rotor_count,
         Some(set.ceiling_height_m),
     )?;
-    Ok(score(&set, &family, &o))
+    Ok(score(&set.truth, &family, &o))
 }
 
 /// A group of scenarios (a family or a roll-up) and its scores.
@@ -527,4 +527,125 @@ pub fn study(
         ok,
         failed,
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use adapter::Outcome;
+    use flight_sim::Withheld;
+
+    fn truth(kind: EffectKind, with_s: f64) -> Truth {
+        Truth {
+            family: "lipo/lab-1hz/paper".into(),
+            seed: 1,
+            effect: Withheld {
+                kind,
+                magnitude: 0.1,
+            },
+            unit: kind.unit(),
+            endurance_s: vec![("a".into(), with_s, 1000.0)],
+        }
+    }
+
+    fn outcome(verdict: &[(&str, f64)], unexplained: bool, before: f64, after: f64) -> Outcome {
+        Outcome {
+            verdict: verdict.iter().map(|(n, _)| (*n).to_owned()).collect(),
+            unexplained,
+            shares: verdict.iter().map(|(n, s)| ((*n).to_owned(), *s)).collect(),
+            heldout_endurance_before_pct: Some(before),
+            heldout_endurance_after_pct: Some(after),
+            heldout_headline: (before, after),
+        }
+    }
+
+    #[test]
+    fn strict_rules() {
+        let fam = Family::parse("lipo/lab-1hz/paper").unwrap();
+        // A library effect with 5 % impact: right when it has the largest share.
+        let t = truth(EffectKind::CapacityFade, 950.0);
+        let o = outcome(
+            &[("internal_resistance", 0.3), ("capacity_fade", 0.6)],
+            true,
+            5.0,
+            1.0,
+        );
+        let r = score(&t, &fam, &o);
+        assert!(r.strict_scored && r.strict_correct);
+        assert_eq!(r.verdict, "internal_resistance+capacity_fade (unexplained)");
+        assert!((r.shrinkage() - 0.8).abs() < 1e-12);
+        let o = outcome(
+            &[("internal_resistance", 0.7), ("capacity_fade", 0.2)],
+            false,
+            5.0,
+            1.0,
+        );
+        assert!(!score(&t, &fam, &o).strict_correct);
+        // Under 2 % impact: not in the strict score.
+        let t = truth(EffectKind::CapacityFade, 990.0);
+        assert!(!score(&t, &fam, &o).strict_scored);
+        // none: an empty verdict that is not unexplained.
+        let t = truth(EffectKind::None, 1000.0);
+        assert!(score(&t, &fam, &outcome(&[], false, 0.5, 0.5)).strict_correct);
+        assert!(!score(&t, &fam, &outcome(&[], true, 0.5, 0.5)).strict_correct);
+        assert!(!score(&t, &fam, &outcome(&[("peukert", 1.0)], false, 0.5, 0.4)).strict_correct);
+        // Outside the library: unexplained, whatever was selected.
+        let t = truth(EffectKind::MotorHeating, 960.0);
+        assert!(score(&t, &fam, &outcome(&[("peukert", 1.0)], true, 3.0, 2.0)).strict_correct);
+        assert!(!score(&t, &fam, &outcome(&[("peukert", 1.0)], false, 3.0, 2.0)).strict_correct);
+    }
+
+    #[test]
+    fn groups_count_worse_runs_and_median_shrinkage() {
+        let fam = Family::parse("lfp/fc-10hz/varied").unwrap();
+        let rs: Vec<ScenarioResult> = [(4.0, 1.0), (4.0, 2.0), (1.0, 1.5), (2.0, 2.1)]
+            .iter()
+            .map(|(b, a)| {
+                score(
+                    &truth(EffectKind::CapacityFade, 900.0),
+                    &fam,
+                    &outcome(&[("capacity_fade", 1.0)], false, *b, *a),
+                )
+            })
+            .collect();
+        let rep = summarise((0, 4), &[fam], rs, Vec::new());
+        let g = rep
+            .groups
+            .iter()
+            .find(|g| g.name == "lfp/fc-10hz/varied")
+            .unwrap();
+        assert!(g.heldout);
+        assert_eq!(g.worse, (2, 1));
+        assert!((g.max_worse_pp.unwrap() - 0.5).abs() < 1e-12);
+        // Shrinkages 0.75, 0.5, −0.5, −0.05: median −0.025 … 0.5 → (0.5 − 0.05) / 2.
+        assert!((g.median_shrinkage.unwrap() - 0.225).abs() < 1e-12);
+        assert_eq!(rep.groups[0].name, "all held-out families");
+        assert_eq!(rep.tuning_families.len(), 0);
+    }
+
+    #[test]
+    fn family_selection() {
+        assert_eq!(select_families("all").unwrap().len(), 40);
+        let t = select_families("tuning").unwrap();
+        assert_eq!(t.len(), 4);
+        assert!(t.iter().all(is_tuning_family));
+        assert_eq!(select_families("heldout").unwrap().len(), 36);
+        assert_eq!(select_families("lfp").unwrap().len(), 8);
+        assert_eq!(
+            select_families("*/vonly-5hz/paper,lfp/*/paper")
+                .unwrap()
+                .len(),
+            8
+        );
+        assert!(select_families("lead-acid").is_err());
+        // At least one chemistry is held out entirely.
+        for c in [Chemistry::LiHv, Chemistry::Nca, Chemistry::LiFePo4] {
+            assert!(
+                Family::all()
+                    .iter()
+                    .filter(|f| f.chemistry == c)
+                    .all(|f| !is_tuning_family(f))
+            );
+        }
+    }
 }
