@@ -161,6 +161,7 @@ pub(crate) fn run(
         log_dt.max(0.1)
     };
     let mut tick = 0u64;
+    let mut last_kept_s = 0.0_f64;
 
     let mut csv = String::with_capacity(64 * 4096);
     csv.push_str("time_s,voltage_v");
@@ -284,7 +285,13 @@ pub(crate) fn run(
                 } else if noise_rng.random::<f64>() < sensor.drop_p {
                     keep = false;
                 }
+                // A logger that stalls this long restarts: no hole reaches 4 s.
+                if !keep && tick_s - last_kept_s >= 4.0 - log_dt {
+                    keep = true;
+                    drop_left = 0;
+                }
                 if keep || samples == 0 {
+                    last_kept_s = tick_s;
                     let jitter = (sensor.jitter_frac * normal(&mut noise_rng)).clamp(-0.3, 0.3);
                     let ts = tick_s + jitter * log_dt;
                     let q = sensor.v_quantum;

@@ -278,8 +278,9 @@ pub fn run_scenario(seed: u64, families: &[Family]) -> Result<ScenarioResult, Ev
 pub struct GroupSummary {
     /// Family name or roll-up (`held-out`, `tuning`, `chemistry lfp`, …).
     pub name: String,
-    /// Held out from tuning (every family in it).
-    pub heldout: bool,
+    /// `held out` (every family in it held out from tuning), `tuning` (every one a tuning
+    /// family) or `mixed`.
+    pub split: &'static str,
     /// Scenarios.
     pub scenarios: usize,
     /// Strictly scored scenarios and the right ones.
@@ -340,7 +341,13 @@ impl GroupSummary {
         shr.sort_by(f64::total_cmp);
         Self {
             name,
-            heldout: rs.iter().all(|r| !r.tuning),
+            split: if rs.iter().all(|r| !r.tuning) {
+                "held out"
+            } else if rs.iter().all(|r| r.tuning) {
+                "tuning"
+            } else {
+                "mixed"
+            },
             scenarios: rs.len(),
             strict: count(&|r| r.strict_scored, &|r| r.strict_correct),
             library: count(&lib, &|r| r.strict_correct),
@@ -614,7 +621,7 @@ mod tests {
             .iter()
             .find(|g| g.name == "lfp/fc-10hz/varied")
             .unwrap();
-        assert!(g.heldout);
+        assert_eq!(g.split, "held out");
         assert_eq!(g.worse, (2, 1));
         assert!((g.max_worse_pp.unwrap() - 0.5).abs() < 1e-12);
         // Shrinkages 0.75, 0.5, −0.5, −0.05: median −0.025 … 0.5 → (0.5 − 0.05) / 2.

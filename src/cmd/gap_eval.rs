@@ -47,7 +47,7 @@ fn frac(p: (usize, usize)) -> String {
 fn row(g: &GroupSummary) -> Vec<String> {
     vec![
         g.name.clone(),
-        if g.heldout { "held out" } else { "tuning" }.to_owned(),
+        g.split.to_owned(),
         g.scenarios.to_string(),
         format!("{} {}", frac(g.strict), pct(g.strict_rate())),
         frac(g.library),
