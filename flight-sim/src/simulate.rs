@@ -1,0 +1,382 @@
+//! One flight: pack, propulsion and sensors stepped through a mission, logged as the field logs.
+
+use std::fmt::Write as _;
+
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use crate::mission::{FlightPlan, HALL_CEILING_M, Leg, LoggedPhase};
+use crate::ocv::{OcvCurve, OcvScatter};
+use crate::robot::{GRAVITY_M_S2, RIG_AIR_DENSITY_KG_M3, Robot};
+use crate::world::{EffectKind, Family, Withheld};
+use crate::{PackSpec, normal};
+
+/// Arrhenius temperature of the cells' resistance, K.
+const RESISTANCE_ACTIVATION_K: f64 = 2800.0;
+/// Specific heat of a pack, J/(kg·K).
+const PACK_HEAT_J_KG_K: f64 = 1000.0;
+/// Temperature coefficient of copper, 1/K.
+const COPPER_PER_K: f64 = 0.003_93;
+/// Share of a rotor's power lost in the windings (at the rig's temperature).
+const COPPER_SHARE: f64 = 0.2;
+/// Distance from the rotor plane to the top of the frame, m.
+const ROTOR_BELOW_TOP_M: f64 = 0.03;
+/// `K₂` of the ceiling-effect formula, in rotor radii.
+const CEILING_K2_RADII: f64 = 0.6;
+
+/// A simulated flight: its log as files and its truth.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SimFlight {
+    /// Name (file stem).
+    pub name: String,
+    /// `NAME.csv` in the flight-log format (`time_s,voltage_v[,current_a],phase,altitude_m`).
+    pub csv: String,
+    /// `NAME.toml`, the metadata sidecar.
+    pub toml: String,
+    /// True endurance: time from the start of the log to the landing, s.
+    pub endurance_s: f64,
+    /// Whether the flight ended at the autopilot's cut-off (else the mission ended first).
+    pub ended_at_cutoff: bool,
+    /// Logged samples.
+    pub samples: usize,
+}
+
+/// The pack of one flight: its cells' curve, capacity and impedance.
+struct Pack {
+    ocv: OcvCurve,
+    cells: f64,
+    capacity_ah: f64,
+    r0_ohm: f64,
+    rc: [(f64, f64); 2],
+    hysteresis_v: f64,
+    heat_capacity_j_k: f64,
+}
+
+impl Pack {
+    fn new(family: &Family, spec: &PackSpec, rng: &mut ChaCha8Rng, fade: f64) -> Self {
+        let chem = family.chemistry;
+        let scatter = OcvScatter {
+            window_shift: 0.01 * normal(rng),
+            full_offset_v: 0.006 * normal(rng),
+            empty_offset_v: 0.02 * normal(rng),
+        };
+        let ocv = OcvCurve::new(chem, scatter);
+        let cells = f64::from(chem.cells());
+        // The rated energy is the maker's; the pack holds within a few percent of it.
+        let capacity_ah = spec.energy_wh / (cells * ocv.mean_v())
+            * (1.0 + 0.025 * normal(rng)).clamp(0.9, 1.1)
+            * (1.0 - fade);
+        let imp = chem.impedance();
+        let spread = (1.0 + 0.12 * normal(rng)).clamp(0.6, 1.5);
+        Self {
+            r0_ohm: imp.r0_ohm_ah / capacity_ah * spread,
+            rc: [
+                (imp.rc[0].0 / capacity_ah * spread, imp.rc[0].1),
+                (imp.rc[1].0 / capacity_ah * spread, imp.rc[1].1),
+            ],
+            hysteresis_v: imp.hysteresis_v,
+            heat_capacity_j_k: spec.mass_kg * PACK_HEAT_J_KG_K,
+            ocv,
+            cells,
+            capacity_ah,
+        }
+    }
+}
+
+/// The sensors of one flight: constant errors drawn once.
+struct Sensors {
+    v_scale: f64,
+    v_offset: f64,
+    i_scale: f64,
+    i_offset: f64,
+}
+
+/// Simulates one flight of `plan` in `family` with `effect`. Same seed, same pack, sensors and
+/// noise whatever the effect, so runs with and without it compare.
+pub fn simulate(
+    family: &Family,
+    robot: &Robot,
+    plan: &FlightPlan,
+    effect: &Withheld,
+    seed: u64,
+) -> SimFlight {
+    run(family, robot, plan, effect, seed, true)
+}
+
+/// Simulates a flight; `log: false` skips the log (only the endurance is wanted).
+pub(crate) fn run(
+    family: &Family,
+    robot: &Robot,
+    plan: &FlightPlan,
+    effect: &Withheld,
+    seed: u64,
+    log: bool,
+) -> SimFlight {
+    let mut pack_rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7061_636b);
+    let mut noise_rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6e6f_6973);
+    let mut ctrl_rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6374_726c);
+    let chem = family.chemistry;
+    let spec = crate::pack_spec(chem, plan.pack);
+    let pack = Pack::new(
+        family,
+        &spec,
+        &mut pack_rng,
+        effect.of(EffectKind::CapacityFade),
+    );
+    let sensor = family.logging.sensors();
+    let s = Sensors {
+        v_scale: 1.0 + sensor.v_scale_sd * normal(&mut pack_rng),
+        v_offset: sensor.v_offset_sd * normal(&mut pack_rng),
+        i_scale: 1.0 + sensor.i_scale_sd * normal(&mut pack_rng),
+        i_offset: sensor.i_offset_sd * normal(&mut pack_rng),
+    };
+    let start_soc = 1.0 - 0.012 * pack_rng.random::<f64>();
+    let ambient_k = plan.ambient_c + 273.15;
+    let logged_ambient_c = plan.ambient_c + 0.5 * normal(&mut pack_rng);
+    // The hall's air: near the rig's, unless the site is thinner.
+    let rho = RIG_AIR_DENSITY_KG_M3
+        * (1.0 - 0.008 * normal(&mut pack_rng).clamp(-2.0, 2.0))
+        * (1.0 - effect.of(EffectKind::AirDensity) * plan.density_draw);
+    let logged_rho = rho * (1.0 + 0.003 * normal(&mut pack_rng));
+
+    let prop = &robot.propulsion;
+    let n_rot = f64::from(robot.rotor_count);
+    let water0 = effect.of(EffectKind::DrainingPayload);
+    let extra_r = effect.of(EffectKind::InternalResistance);
+    let peukert = effect.of(EffectKind::Peukert);
+    let download = effect.of(EffectKind::ControlOverhead);
+    let hold_a = effect.of(EffectKind::AttachedPower);
+    let inv_k1 = effect.of(EffectKind::CeilingEffect);
+    let climb_gain = effect.of(EffectKind::ClimbPower);
+    let heating_k = effect.of(EffectKind::MotorHeating);
+    let cutoff_v = f64::from(chem.cells()) * chem.cutoff_cell_v();
+    let idle_w = robot.avionics_power_w + plan.payload_power_w;
+
+    // Integration step: the log interval within 0.1–0.5 s; faster logs sample the state of
+    // the step they fall in (with their own noise).
+    let log_dt = 1.0 / sensor.rate_hz;
+    let dt = if log_dt >= 0.5 {
+        log_dt / (log_dt / 0.5).ceil()
+    } else {
+        log_dt.max(0.1)
+    };
+    let mut tick = 0u64;
+    let mut last_kept_s = 0.0_f64;
+
+    let mut csv = String::with_capacity(64 * 4096);
+    csv.push_str("time_s,voltage_v");
+    if sensor.current {
+        csv.push_str(",current_a");
+    }
+    csv.push_str(",phase,altitude_m\n");
+    let mut samples = 0usize;
+
+    let (mut t, mut z, mut soc) = (0.0_f64, 0.0_f64, start_soc);
+    let mut v_rc = [0.0_f64; 2];
+    let mut hyst = pack.hysteresis_v; // after charging: on the charge branch
+    let mut cell_k = ambient_k;
+    let mut motor_dk = 0.0_f64;
+    let mut water = water0;
+    let mut airborne_s = 0.0_f64;
+    let mut ctrl = 0.0_f64;
+    let (ctrl_sigma, ctrl_tau) = robot.control_noise;
+    let a_ctrl = (-dt / ctrl_tau).exp();
+    let mut v_filtered = f64::NAN;
+    let mut last_v = pack.cells * pack.ocv.at(soc);
+    let mut drop_left = 0usize;
+    let mut ended = false;
+
+    'legs: for leg in &plan.legs {
+        let mut leg_t = 0.0;
+        loop {
+            let (phase, vz, done) = match *leg {
+                Leg::Ground(d) => (LoggedPhase::Ground, 0.0, leg_t >= d - 1e-9),
+                Leg::Attached(d) => (LoggedPhase::Attached, 0.0, leg_t >= d - 1e-9),
+                Leg::Hover(d) => (LoggedPhase::Hover, 0.0, leg_t >= d - 1e-9),
+                Leg::HoverToCutoff => (LoggedPhase::Hover, 0.0, false),
+                Leg::Climb(to, v) => (LoggedPhase::Climb, v, z >= to - 1e-9),
+                Leg::Descend(to, v) => (LoggedPhase::Descend, -v, z <= to + 1e-9),
+            };
+            if done {
+                break;
+            }
+            let flying = !matches!(phase, LoggedPhase::Ground | LoggedPhase::Attached);
+            ctrl =
+                a_ctrl * ctrl + (1.0 - a_ctrl * a_ctrl).sqrt() * ctrl_sigma * normal(&mut ctrl_rng);
+            let mass = robot.structure_mass_kg + spec.mass_kg + plan.payload_mass_kg + water;
+            let mut rotor_w = 0.0;
+            let mut thrust_g = 0.0;
+            if flying {
+                thrust_g = mass * 1000.0 / n_rot * (1.0 + download) * (1.0 + ctrl).max(0.2);
+                // Ceiling: more thrust at equal rotor speed means less speed, hence less power,
+                // at equal thrust: P ∝ (T/f)^1.5.
+                let mut aero_thrust_g = thrust_g;
+                if inv_k1 > 0.0 {
+                    let d = (HALL_CEILING_M - ROTOR_BELOW_TOP_M - z).max(0.0);
+                    let x = prop.radius_m / (d + CEILING_K2_RADII * prop.radius_m);
+                    let f = 1.0 / (1.0 - (inv_k1 * x * x).min(0.8));
+                    aero_thrust_g = thrust_g / f;
+                }
+                // Ground effect (Cheeseman–Bennett), always: only near the floor.
+                if z > 0.05 {
+                    let g = (prop.radius_m / (4.0 * z)).powi(2);
+                    aero_thrust_g *= 1.0 - g.min(0.5);
+                }
+                let mut per_rotor = prop.rotor_power_w(aero_thrust_g, rho);
+                if heating_k > 0.0 {
+                    per_rotor *= 1.0 + COPPER_SHARE * COPPER_PER_K * motor_dk;
+                }
+                rotor_w = per_rotor * n_rot;
+                if climb_gain > 0.0 && vz > 0.0 {
+                    // Momentum theory in climb: T·(v_c/2 + √((v_c/2)² + v_h²)) − T·v_h.
+                    let vh = prop.induced_velocity_m_s(thrust_g, rho);
+                    let tn = thrust_g / 1000.0 * GRAVITY_M_S2 * n_rot;
+                    let half = vz / 2.0;
+                    rotor_w += climb_gain * tn * (half + (half * half + vh * vh).sqrt() - vh);
+                }
+            }
+            // Lead losses at the pack's voltage.
+            let lead_w = if flying {
+                let i_rotor = rotor_w / n_rot / last_v.max(1.0);
+                i_rotor * i_rotor * prop.lead_resistance_ohm * n_rot
+            } else {
+                0.0
+            };
+            let mut load_w = rotor_w + lead_w + idle_w;
+            if phase == LoggedPhase::Attached {
+                load_w += hold_a * last_v;
+            }
+            // Pack: E − I·R = V, V·I = P.
+            let r_cell =
+                pack.r0_ohm * (RESISTANCE_ACTIVATION_K * (1.0 / cell_k - 1.0 / 298.15)).exp();
+            let r = pack.cells * r_cell + extra_r;
+            let e = pack.cells * (pack.ocv.at(soc) + hyst - v_rc[0] - v_rc[1]);
+            let disc = e * e - 4.0 * r * load_w;
+            if disc < 0.0 || soc <= 0.0 {
+                ended = true;
+                break 'legs;
+            }
+            let i = (e - disc.sqrt()) / (2.0 * r);
+            let v = e - i * r;
+            // The autopilot lands on its own (filtered) voltage reading, and when the rotors
+            // can no longer carry the robot.
+            let v_meas = v * s.v_scale + s.v_offset;
+            v_filtered = if v_filtered.is_nan() {
+                v_meas
+            } else {
+                v_filtered + (v_meas - v_filtered) * (dt / 1.0).min(1.0)
+            };
+            if v_filtered < cutoff_v || (flying && prop.max_thrust_g(v) < thrust_g) {
+                ended = true;
+                break 'legs;
+            }
+            last_v = v;
+            // Log.
+            while log && (tick as f64) * log_dt < t + dt - 1e-9 {
+                let tick_s = tick as f64 * log_dt;
+                tick += 1;
+                let mut keep = true;
+                if drop_left > 0 {
+                    drop_left -= 1;
+                    keep = false;
+                } else if noise_rng.random::<f64>() < sensor.burst_p {
+                    drop_left = (noise_rng.random_range(1.0..3.0) * sensor.rate_hz) as usize;
+                    keep = false;
+                } else if noise_rng.random::<f64>() < sensor.drop_p {
+                    keep = false;
+                }
+                // A logger that stalls this long restarts: no hole reaches 4 s.
+                if !keep && tick_s - last_kept_s >= 4.0 - log_dt {
+                    keep = true;
+                    drop_left = 0;
+                }
+                if keep || samples == 0 {
+                    last_kept_s = tick_s;
+                    let jitter = (sensor.jitter_frac * normal(&mut noise_rng)).clamp(-0.3, 0.3);
+                    let ts = tick_s + jitter * log_dt;
+                    let q = sensor.v_quantum;
+                    let vq = ((v_meas + sensor.v_noise * normal(&mut noise_rng)) / q).round() * q;
+                    let _ = write!(csv, "{ts:.3},{vq:.3}");
+                    if sensor.current {
+                        let im =
+                            i * s.i_scale + s.i_offset + sensor.i_noise * normal(&mut noise_rng);
+                        let _ = write!(csv, ",{:.2}", (im * 100.0).round() / 100.0);
+                    }
+                    let zm = z + sensor.alt_noise * normal(&mut noise_rng);
+                    let _ = writeln!(csv, ",{},{zm:.2}", phase.name());
+                    samples += 1;
+                }
+            }
+            // Advance the state.
+            let i_1c = pack.capacity_ah;
+            let drawn = if peukert > 0.0 && i > 0.0 {
+                i * (i / i_1c).powf(peukert)
+            } else {
+                i
+            };
+            soc -= drawn * dt / 3600.0 / pack.capacity_ah;
+            for (k, (r1, tau)) in pack.rc.iter().enumerate() {
+                let r1t = r1 * (RESISTANCE_ACTIVATION_K * (1.0 / cell_k - 1.0 / 298.15)).exp();
+                v_rc[k] += (i * r1t - v_rc[k]) * (1.0 - (-dt / tau).exp());
+            }
+            // Hysteresis relaxes towards the discharge branch with the charge moved.
+            let gamma = 40.0;
+            let dq = i.abs() * dt / 3600.0 / pack.capacity_ah;
+            hyst += (-pack.hysteresis_v * i.signum() - hyst) * (1.0 - (-gamma * dq).exp());
+            // Self-heating: I²R in, convection out (prop wash cools in flight).
+            let heat_w = i * i * pack.cells * r_cell + i * pack.cells * (v_rc[0] + v_rc[1]);
+            let ha = (if flying { 0.9 } else { 0.35 }) * (spec.mass_kg / 0.144).powf(2.0 / 3.0);
+            cell_k += (heat_w - ha * (cell_k - ambient_k)) * dt / pack.heat_capacity_j_k;
+            if heating_k > 0.0 {
+                let target = if flying { heating_k } else { 0.0 };
+                motor_dk += (target - motor_dk) * (1.0 - (-dt / 150.0).exp());
+            }
+            if flying && water > 0.0 {
+                water = (water - water0 / 300.0 * dt).max(0.0);
+            }
+            z = (z + vz * dt).max(0.0);
+            match *leg {
+                Leg::Climb(to, _) => z = z.min(to),
+                Leg::Descend(to, _) => z = z.max(to),
+                _ => {}
+            }
+            if flying {
+                airborne_s += dt;
+            }
+            t += dt;
+            leg_t += dt;
+        }
+    }
+    let _ = airborne_s;
+    let logged_payload = plan.payload_mass_kg + water0;
+    let mut toml = String::new();
+    let _ = writeln!(
+        toml,
+        "structure_mass_kg = {}",
+        robot.logged_structure_mass_kg
+    );
+    let _ = writeln!(toml, "battery_mass_kg = {}", spec.mass_kg);
+    let _ = writeln!(toml, "battery_energy_wh = {}", spec.energy_wh);
+    let _ = writeln!(toml, "cells = {}", chem.cells());
+    let _ = writeln!(toml, "payload_mass_kg = {logged_payload}");
+    let _ = writeln!(toml, "payload_power_w = {}", plan.payload_power_w);
+    let _ = writeln!(toml, "avionics_power_w = {}", robot.logged_avionics_power_w);
+    let _ = writeln!(toml, "battery_id = \"{}\"", spec.id);
+    let _ = writeln!(toml, "battery_cycles = {}", plan.cycles);
+    let _ = writeln!(toml, "ambient_temperature_c = {logged_ambient_c:.1}");
+    let _ = writeln!(toml, "air_density_kg_m3 = {logged_rho:.4}");
+    let _ = writeln!(toml, "cutoff_voltage_v = {cutoff_v}");
+    let _ = writeln!(
+        toml,
+        "end = \"{}\"",
+        if ended { "cutoff" } else { "landed" }
+    );
+    SimFlight {
+        name: plan.name.clone(),
+        csv,
+        toml,
+        endurance_s: t,
+        ended_at_cutoff: ended,
+        samples,
+    }
+}
