@@ -302,3 +302,52 @@ fn one_flight_is_localised_and_says_how_many_more_the_attribution_needs() {
         "{text}"
     );
 }
+
+/// Runs `hoverbench gap` on a shared folder of real logs: (exit code, stdout, stderr).
+fn gap_on_shared(folder: &str) -> (Option<i32>, String, String) {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join(folder);
+    let o = Command::cargo_bin("hoverbench")
+        .unwrap()
+        .args(["gap", dir.to_str().unwrap()])
+        .output()
+        .unwrap();
+    (
+        o.status.code(),
+        String::from_utf8_lossy(&o.stdout).into_owned(),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+    )
+}
+
+/// One usable PX4 log with 1.2 s in the air (of 6 s), at most 23 W drawn: no hover power can
+/// be estimated from it, so none is printed (it used to print 1658 W and a 4952 % gap).
+#[test]
+fn ulog_folder_refuses_a_hover_power_from_one_second_of_flying() {
+    let (code, out, err) = gap_on_shared("../shared/data/real/flightlogs/ulog");
+    assert_eq!(code, Some(2), "{out}\n{err}");
+    assert!(!out.contains("estimated hover power"), "{out}");
+    assert!(!out.contains("energy per phase"), "{out}");
+    // The skipped files' reasons come first, then the refusal naming the flight and its time.
+    let skipped = err.find("skipped").expect(&err);
+    let refusal = err.find("too little flying").expect(&err);
+    assert!(skipped < refusal, "{err}");
+    assert!(
+        err.contains("pyulog_sample_log_small: 1.2 s of 6.0 s") && err.contains("10 s"),
+        "{err}"
+    );
+}
+
+/// The 0.8 s ArduPlane log held out by the default split has nothing to score: it is left out
+/// with its reason (it used to score a 100 % energy error), and nothing is left to score.
+#[test]
+fn dataflash_folder_leaves_out_a_held_out_flight_too_short_to_score() {
+    let (code, out, err) = gap_on_shared("../shared/data/real/flightlogs/dataflash");
+    assert_eq!(code, Some(2), "{out}\n{err}");
+    assert!(!out.contains("100.00 %"), "{out}");
+    assert!(!out.contains("gap before"), "{out}");
+    assert!(
+        err.contains("held out but not scored pymavlink_test_arduplane_first64k")
+            && err.contains("s of flying in 0.8 s of log"),
+        "{err}"
+    );
+    assert!(err.contains("no held-out flight can be scored"), "{err}");
+}

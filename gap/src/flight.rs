@@ -83,6 +83,17 @@ impl FlightRecord {
         }
     }
 
+    /// Time the rotors carried the robot, s: the sum of the sample intervals that start in a
+    /// flying phase ([`rotors_on`]).
+    pub fn flying_s(&self) -> f64 {
+        self.time_s
+            .windows(2)
+            .zip(&self.phase)
+            .filter(|(_, p)| rotors_on(**p))
+            .map(|(w, _)| (w[1] - w[0]).max(0.0))
+            .sum()
+    }
+
     /// Vertical speed at every sample from the altitude log (central differences over a
     /// window of about `window_s`), m/s.
     pub fn vertical_speed_m_s(&self, window_s: f64) -> Option<Vec<f64>> {

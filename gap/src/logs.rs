@@ -106,10 +106,98 @@ impl PowerCurve for ConstantPower {
     }
 }
 
+/// Least flying time, s, summed over the flights a hover power is estimated from, and least
+/// flying time of a held-out flight for it to be scored. Spinning up, taking off and settling
+/// into a hover take a few seconds (1–3 s of throttle transient on a multirotor), and flight
+/// logs often record the battery at 1–10 Hz: under 10 s in the air, the mean power is the
+/// transient's and the voltage barely leaves its resting level, so neither a hover power nor
+/// an energy per phase can be read from it.
+pub const MIN_FLYING_S: f64 = 10.0;
+
+/// How far above the largest power the flights drew (logged voltage × current) an estimated
+/// hover power may lie: room for the mass^1.5 scaling between flights of different take-off
+/// masses, not for an estimate no flight supports.
+pub const MAX_HOVER_OVER_DRAWN: f64 = 2.0;
+
+/// Why a flight cannot be scored (too little flying time, no flying phase), or `None`.
+pub fn unscorable(f: &FlightRecord) -> Option<String> {
+    let flying = f.flying_s();
+    (flying < MIN_FLYING_S).then(|| {
+        if flying <= 0.0 {
+            format!(
+                "no flying phase in {:.1} s of log (on the ground throughout): nothing to score",
+                f.duration_s()
+            )
+        } else {
+            format!(
+                "{flying:.1} s of flying in {:.1} s of log, under the {MIN_FLYING_S:.0} s an energy per phase needs",
+                f.duration_s()
+            )
+        }
+    })
+}
+
+/// Largest power any of the flights drew, W (logged voltage × current), or `None` when none
+/// logs current.
+fn max_drawn_w<'a>(flights: &[&'a FlightRecord]) -> Option<(f64, &'a str)> {
+    flights
+        .iter()
+        .filter_map(|f| {
+            let c = f.current_a.as_ref()?;
+            let p = f
+                .voltage_v
+                .iter()
+                .zip(c)
+                .map(|(v, i)| v * i)
+                .filter(|p| p.is_finite())
+                .fold(f64::NEG_INFINITY, f64::max);
+            p.is_finite().then_some((p, f.name.as_str()))
+        })
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+}
+
 /// Estimates the rotors' hover power from training flights: the mean measured hover power
 /// (battery power less idle power) when current is logged; otherwise the power that makes the
 /// baseline model follow the voltage trajectories best, with the batteries `batteries`.
+///
+/// Refuses ([`GapError::Implausible`]) flights with less than [`MIN_FLYING_S`] of flying in
+/// all, and an estimate more than [`MAX_HOVER_OVER_DRAWN`] times the largest power the flights
+/// drew or not above the avionics power ([`check_hover_power`]).
 pub fn estimate_hover_power(
+    train: &[&FlightRecord],
+    batteries: &BatterySet,
+    opts: &DiagnoseOptions,
+) -> Result<ConstantPower, GapError> {
+    let flying: f64 = train.iter().map(|f| f.flying_s()).sum();
+    if flying < MIN_FLYING_S {
+        return Err(GapError::Implausible(format!(
+            "too little flying to estimate a hover power from: {flying:.1} s in the air in all ({}), under the {MIN_FLYING_S:.0} s needed to see past take-off transients — give longer flights or a rig characterisation (--params)",
+            train
+                .iter()
+                .map(|f| format!(
+                    "{}: {:.1} s of {:.1} s",
+                    f.name,
+                    f.flying_s(),
+                    f.duration_s()
+                ))
+                .collect::<Vec<_>>()
+                .join(", ")
+        )));
+    }
+    let curve = estimate_unchecked(train, batteries, opts);
+    check_hover_power(&curve, train)?;
+    if let Some((drawn, name)) = max_drawn_w(train)
+        && curve.hover_power_w > MAX_HOVER_OVER_DRAWN * drawn
+    {
+        return Err(GapError::Implausible(format!(
+            "the hover power estimated from the flights is {:.2} W, over {MAX_HOVER_OVER_DRAWN:.0} × the most any of them drew ({drawn:.2} W logged voltage × current, in {name}) — the flights do not support a hover-power estimate; give longer hovering flights or a rig characterisation (--params)",
+            curve.hover_power_w
+        )));
+    }
+    Ok(curve)
+}
+
+fn estimate_unchecked(
     train: &[&FlightRecord],
     batteries: &BatterySet,
     opts: &DiagnoseOptions,
@@ -410,8 +498,7 @@ pub fn run<C: PowerCurve>(
                 opts.measured_ocv
                     .unwrap_or_else(crate::battery::LearnedBattery::lipo),
             );
-            let curve = estimate_hover_power(train, &prior, opts);
-            check_hover_power(&curve, train)?;
+            let curve = estimate_hover_power(train, &prior, opts)?;
             let model = Model {
                 curve: &curve,
                 rotor_count: 1,
@@ -548,7 +635,7 @@ pub fn localise_only<C: PowerCurve>(
                 opts.measured_ocv
                     .unwrap_or_else(crate::battery::LearnedBattery::lipo),
             );
-            let curve = estimate_hover_power(flights, &prior, opts);
+            let curve = estimate_hover_power(flights, &prior, opts)?;
             let model = Model {
                 curve: &curve,
                 rotor_count: 1,
@@ -565,4 +652,94 @@ pub fn localise_only<C: PowerCurve>(
             )
         }
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::battery::LearnedBattery;
+
+    /// A 4S flight at `volts` drawing `amps`, `secs` long at 10 Hz, the first half on the
+    /// ground and the rest in `flying`.
+    fn flight(name: &str, secs: f64, volts: f64, amps: f64, flying: Phase) -> FlightRecord {
+        let n = (secs * 10.0) as usize + 1;
+        let time_s: Vec<f64> = (0..n).map(|i| i as f64 / 10.0).collect();
+        let phase = (0..n)
+            .map(|i| if i < n / 2 { Phase::Ground } else { flying })
+            .collect();
+        FlightRecord {
+            name: name.into(),
+            voltage_v: time_s.iter().map(|t| volts - 0.001 * t).collect(),
+            current_a: Some(vec![amps; n]),
+            time_s,
+            phase,
+            altitude_m: None,
+            info: FlightInfo {
+                structure_mass_kg: f64::NAN,
+                battery_mass_kg: f64::NAN,
+                battery_energy_wh: 50.0,
+                cells: 4,
+                payload_mass_kg: 0.0,
+                payload_power_w: 0.0,
+                avionics_power_w: 2.0,
+                battery_id: None,
+                battery_cycles: None,
+                ambient_temperature_c: None,
+                air_density_kg_m3: None,
+                cutoff_voltage_v: 12.0,
+                ended_at_cutoff: false,
+                ceiling_height_m: None,
+            },
+        }
+    }
+
+    fn estimate(fs: &[&FlightRecord]) -> Result<ConstantPower, GapError> {
+        let prior = BatterySet::fixed(LearnedBattery::lipo());
+        estimate_hover_power(fs, &prior, &DiagnoseOptions::default())
+    }
+
+    #[test]
+    fn flying_time_counts_only_the_intervals_in_the_air() {
+        let f = flight("a", 40.0, 16.0, 10.0, Phase::Hover);
+        assert!((f.flying_s() - 20.0).abs() < 1e-9, "{}", f.flying_s());
+        assert!(unscorable(&f).is_none());
+        let short = flight("b", 8.0, 16.0, 10.0, Phase::Hover);
+        assert!(unscorable(&short).unwrap().contains("4.0 s of flying"));
+        let ground = flight("c", 30.0, 16.0, 10.0, Phase::Ground);
+        assert!(unscorable(&ground).unwrap().contains("no flying phase"));
+    }
+
+    #[test]
+    fn hover_power_needs_ten_seconds_of_flying() {
+        let a = flight("a", 8.0, 16.0, 10.0, Phase::Hover);
+        let b = flight("b", 8.0, 16.0, 10.0, Phase::Hover);
+        let e = estimate(&[&a, &b]).unwrap_err().to_string();
+        assert!(
+            e.contains("8.0 s in the air") && e.contains("a: 4.0 s of 8.0 s"),
+            "{e}"
+        );
+        // Long enough: the measured hover power (16 V × 10 A less 2 W of avionics).
+        let long = flight("c", 40.0, 16.0, 10.0, Phase::Hover);
+        let w = estimate(&[&long]).unwrap().hover_power_w;
+        assert!((w - 158.0).abs() < 0.5, "{w}");
+    }
+
+    #[test]
+    fn hover_power_below_the_avionics_power_is_refused() {
+        // 16 V × 0.1 A = 1.6 W drawn, below the 2 W the avionics take.
+        let f = flight("low", 40.0, 16.0, 0.1, Phase::Hover);
+        let e = estimate(&[&f]).unwrap_err().to_string();
+        assert!(e.contains("not above the avionics power 2.00 W"), "{e}");
+    }
+
+    #[test]
+    fn hover_power_far_above_what_the_flights_drew_is_refused() {
+        // Current is logged but no sample is in a hover (climbing only): the estimate falls
+        // back on the voltage, whose slope here asks far more power than the 16 W drawn.
+        let mut f = flight("climb", 40.0, 16.0, 1.0, Phase::Climb);
+        let n = f.time_s.len();
+        f.voltage_v = (0..n).map(|i| 16.8 - 2.0 * i as f64 / n as f64).collect();
+        let e = estimate(&[&f]).unwrap_err().to_string();
+        assert!(e.contains("the most any of them drew (16."), "{e}");
+    }
 }

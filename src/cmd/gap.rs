@@ -270,6 +270,24 @@ pub fn run(args: Args) -> Result<()> {
     }
     let (train, held, rule) = split_flights(flights, given);
     let rule = rule.describe();
+    // A held-out flight too short, or never off the ground, has no energy per phase to score:
+    // left out, with its reason (first, like the skipped files).
+    let (held, unscored): (Vec<FlightRecord>, Vec<FlightRecord>) = held
+        .into_iter()
+        .partition(|f| gap::logs::unscorable(f).is_none());
+    for f in &unscored {
+        let why = gap::logs::unscorable(f).unwrap_or_default();
+        if !args.json {
+            eprintln!("held out but not scored {}: {why}", f.name);
+        }
+        skipped.push((f.name.clone(), format!("held out but not scored: {why}")));
+    }
+    if held.is_empty() {
+        bail!(
+            "no held-out flight can be scored ({} held out, all too short or never flying; reasons above): give a longer flight with --holdout",
+            unscored.len()
+        );
+    }
     if train.len() < 2 {
         bail!(
             "{} training flights: the diagnosis needs at least 2 (give fewer --holdout flights)",
