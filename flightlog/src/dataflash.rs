@@ -300,14 +300,7 @@ impl<'a> DataFlash<'a> {
         Ok(Some(
             self.rows(name, instance, fields, path)?
                 .into_iter()
-                .map(|r| Record {
-                    offset: r.offset,
-                    values: r
-                        .values
-                        .into_iter()
-                        .map(|v| v.unwrap_or(f64::NAN))
-                        .collect(),
-                })
+                .map(Record::from)
                 .collect(),
         ))
     }

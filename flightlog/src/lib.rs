@@ -439,6 +439,20 @@ pub struct Row {
     pub values: Vec<Option<f64>>,
 }
 
+impl From<Row> for Record {
+    /// The older, NaN-for-missing form of a row.
+    fn from(r: Row) -> Self {
+        Record {
+            offset: r.offset,
+            values: r
+                .values
+                .into_iter()
+                .map(|v| v.unwrap_or(f64::NAN))
+                .collect(),
+        }
+    }
+}
+
 /// What a format decoder hands over: samples, an optional land detector, warnings.
 #[derive(Debug, Default)]
 pub(crate) struct Decoded {

@@ -467,14 +467,7 @@ impl<'a> ULog<'a> {
         Ok(Some(
             self.rows(topic, multi, fields, path)?
                 .into_iter()
-                .map(|r| Record {
-                    offset: r.offset,
-                    values: r
-                        .values
-                        .into_iter()
-                        .map(|v| v.unwrap_or(f64::NAN))
-                        .collect(),
-                })
+                .map(Record::from)
                 .collect(),
         ))
     }
