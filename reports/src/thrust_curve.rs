@@ -317,8 +317,8 @@ impl Draw for ThrustCurveFigure {
             Some(v) => format!("fit (degree {}) at {} V", self.curve.degree(), num(v, 1)),
             None => format!("fit (degree {})", self.curve.degree()),
         };
-        chart
-            .draw_series(LineSeries::new(curve, colour::BLUE.stroke_width(3)))?
+        render::curve(&chart, &curve, colour::BLUE.stroke_width(3), None)?;
+        render::legend_entry(&mut chart)?
             .label(fit_label)
             .legend(|(x, y)| {
                 PathElement::new(vec![(x, y), (x + 24, y)], colour::BLUE.stroke_width(3))
