@@ -168,7 +168,9 @@ impl ThrustCurveFigure {
             num(hi, 0)
         );
         if let Some(src) = &self.source {
-            s.push_str(&format!(", {} steps from {src}", self.measured.len()));
+            let n = self.measured.len();
+            let steps = if n == 1 { "step" } else { "steps" };
+            s.push_str(&format!(", {n} {steps} from {src}"));
         }
         if self.measured.len() > MAX_DRAWN_STEPS {
             s.push_str(&format!(
