@@ -463,3 +463,40 @@ fn the_readme_lists_the_figures_a_session_writes() {
     named.sort();
     assert_eq!(named, written, "README: {listed}");
 }
+
+#[test]
+fn rig_gap_writes_its_folder_whole_and_never_over_other_files() {
+    let d = tempfile::tempdir().unwrap();
+    let sweep = data("paper-sweep.csv");
+    let out_dir = d.path().join("rg");
+    std::fs::create_dir(&out_dir).unwrap();
+    std::fs::write(out_dir.join("thesis.tex"), "mine").unwrap();
+    let o = run(&["rig-gap", &sweep, &sweep, "-o", out_dir.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2), "{}", stdout(&o));
+    assert!(stderr(&o).contains("thesis.tex"), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read_dir(&out_dir).unwrap().count(),
+        1,
+        "nothing written beside the user's file"
+    );
+    std::fs::remove_file(out_dir.join("thesis.tex")).unwrap();
+    // twice into the same folder: the second run replaces the first
+    for _ in 0..2 {
+        ok(&["rig-gap", &sweep, &sweep, "-o", out_dir.to_str().unwrap()]);
+    }
+    let mut names: Vec<String> = std::fs::read_dir(&out_dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(
+        names,
+        [
+            "rig-gap-residuals.csv",
+            "rig-gap.json",
+            "rig-gap.png",
+            "rig-gap.svg"
+        ]
+    );
+    assert_eq!(leftovers(d.path()), Vec::<String>::new());
+}
