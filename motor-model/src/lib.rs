@@ -658,6 +658,76 @@ mod tests {
         assert!(pr[9].winding_rise_k > 5.0);
     }
 
+    fn at(thrust_g: f64, time_s: f64) -> Point {
+        Point {
+            thrust_g,
+            time_frac: 0.0,
+            time_s,
+            tare_time_s: 0.0,
+            measured_current_a: None,
+        }
+    }
+
+    #[test]
+    fn polarisation_relaxes_with_its_time_constant() {
+        let mut p = base();
+        p.set(Param::PolarisationOhm, 0.05);
+        p.set(Param::PolarisationTauS, 8.0);
+        // A long hold at one thrust: the drop approaches R1·I, and after τ it is 1 − e⁻¹ of it.
+        let pts: Vec<Point> = (0..=40).map(|k| at(800.0, k as f64)).collect();
+        let pr = predict_sweep(&p, &pts);
+        let i = pr[40].current_a;
+        let drop = |k: usize| 16.8 - pr[k].voltage_v;
+        assert!(
+            (drop(40) - 0.05 * i).abs() < 0.01 * 0.05 * i,
+            "{}",
+            drop(40)
+        );
+        let share_at_tau = drop(8) / drop(40);
+        assert!(
+            (share_at_tau - (1.0 - (-1.0f64).exp())).abs() < 0.05,
+            "{share_at_tau}"
+        );
+        assert!(drop(1) < drop(8));
+    }
+
+    #[test]
+    fn loadcell_drift_counts_from_the_tare() {
+        let mut p = base();
+        p.set(Param::LoadcellRateGPerS, 0.5);
+        p.set(Param::LoadcellTauS, 50.0);
+        let drift = |t: f64| 0.5 * 50.0 * (1.0 - (-t / 50.0f64).exp());
+        // Same reading at 30 s after a tare at 0 s and at 130 s after a tare at 100 s: the true
+        // thrust is the reading less the drift since the tare.
+        let a = predict_sweep(&p, &[at(500.0, 30.0)])[0];
+        let b = predict_sweep(
+            &p,
+            &[Point {
+                tare_time_s: 100.0,
+                ..at(500.0, 130.0)
+            }],
+        )[0];
+        assert!((a.thrust_true_g - (500.0 - drift(30.0))).abs() < 1e-9);
+        assert!((b.thrust_true_g - (500.0 - (drift(130.0) - drift(100.0)))).abs() < 1e-9);
+        assert!(b.thrust_true_g > a.thrust_true_g);
+    }
+
+    #[test]
+    fn measured_current_drives_the_supply_not_the_power() {
+        let mut p = base();
+        p.set(Param::SourceResistanceOhm, 0.1);
+        let free = predict_sweep(&p, &[at(800.0, 0.0)])[0];
+        let driven = predict_sweep(
+            &p,
+            &[Point {
+                measured_current_a: Some(30.0),
+                ..at(800.0, 0.0)
+            }],
+        )[0];
+        assert!((driven.voltage_v - (16.8 - 0.1 * 30.0)).abs() < 1e-9);
+        assert!((driven.power_w - free.power_w).abs() < 1e-9);
+    }
+
     #[test]
     fn effect_names_round_trip() {
         for e in Effect::ALL {

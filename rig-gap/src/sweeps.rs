@@ -304,3 +304,47 @@ pub fn split_default(runs: Vec<StandSweep>) -> (Vec<StandSweep>, Vec<StandSweep>
         )
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use import::stand::StandOptions;
+
+    #[test]
+    fn runs_carry_the_log_clock_and_their_tare() {
+        // Two sweeps: the idle row of the second reads a drifted zero well above 5 % of the top
+        // thrust, yet the rotor is stopped at the lowest command, so it is the tare.
+        let csv = "time_s,throttle,thrust_g,voltage_v,current_a,power_w,rpm\n\
+                   0,0,2,12.0,0,0,0\n\
+                   4,0.3,102,11.9,2,23.8,6000\n\
+                   8,0.6,302,11.8,6,70.8,9000\n\
+                   12,1.0,502,11.7,10,117,11000\n\
+                   80,0,40,12.0,0,0,0\n\
+                   84,0.3,140,11.9,2,23.8,6000\n\
+                   88,0.6,340,11.8,6,70.8,9000\n\
+                   92,1.0,540,11.7,10,117,11000\n";
+        let log = StandLog::parse(csv.as_bytes().to_vec(), "two.csv", &StandOptions::default())
+            .expect("log");
+        let runs = runs_of_log(&log).expect("runs");
+        assert_eq!(runs.len(), 2);
+        let r2 = &runs[1].sweep;
+        assert_eq!(r2.steps.len(), 3);
+        assert_eq!(r2.tare_time_s, 80.0);
+        let t: Vec<f64> = r2.steps.iter().map(|o| o.time_s).collect();
+        assert_eq!(t, [84.0, 88.0, 92.0]);
+        // The 40 g tare is taken off every step of the second run.
+        assert!((r2.steps[0].thrust_g - 100.0).abs() < 1e-9);
+        assert_eq!(r2.open_circuit_v, Some(12.0));
+        assert_eq!(runs[0].sweep.steps[0].time_s, 4.0);
+    }
+
+    #[test]
+    fn without_a_time_column_the_clock_is_the_step_order() {
+        let csv = "throttle,thrust_g,power_w\n0,0,0\n0.3,100,20\n0.6,300,70\n1.0,500,117\n";
+        let log = StandLog::parse(csv.as_bytes().to_vec(), "n.csv", &StandOptions::default())
+            .expect("log");
+        let runs = runs_of_log(&log).expect("runs");
+        let t: Vec<f64> = runs[0].sweep.steps.iter().map(|o| o.time_s).collect();
+        assert_eq!(t, [1.0, 2.0, 3.0]);
+    }
+}
