@@ -8,35 +8,22 @@ use std::process::Output;
 use assert_cmd::Command;
 use estimator::file::Provenance;
 
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn data(name: &str) -> PathBuf {
-    root().join("tests/data").join(name)
-}
+mod common;
+use common::{assert_self_contained, data_path, root, run};
 
 fn report_data(name: &str) -> PathBuf {
     root().join("reports/tests/data").join(name)
 }
 
-fn hoverbench(args: &[&str]) -> Output {
-    Command::cargo_bin("hoverbench")
-        .unwrap()
-        .args(args)
-        .output()
-        .unwrap()
-}
-
 /// A session folder: `params.toml` fitted from the paper sweep with the 9 V limit sweep, and a
 /// `sweep.csv` with a `power_std_w` column (1 % of the power) so that Fig. 3 has error bars.
 fn session(dir: &Path, input_file: &str) {
-    let (sweep, sweep_bytes) = import::Table::read(&data("paper-sweep.csv")).unwrap();
+    let (sweep, sweep_bytes) = import::Table::read(&data_path("paper-sweep.csv")).unwrap();
     let xy = sweep
         .xy("thrust_g", &import::YSource::power_default())
         .unwrap();
     let fitted = fit::fit_polynomial(&xy.x, &xy.y, 5).unwrap();
-    let (limit_table, limit_bytes) = import::Table::read(&data("paper-limit-9v.csv")).unwrap();
+    let (limit_table, limit_bytes) = import::Table::read(&data_path("paper-limit-9v.csv")).unwrap();
     let std = limit_table.column("thrust_std_g").unwrap();
     let limit = fit::thrust_limit(
         &limit_table.column("throttle").unwrap(),
@@ -78,17 +65,6 @@ fn session(dir: &Path, input_file: &str) {
     std::fs::write(dir.join("sweep.csv"), csv).unwrap();
 }
 
-fn assert_self_contained(html: &str) {
-    for bad in [
-        "http://", "https://", "file:", "<script", "<link", "<img", "@import", "url(",
-    ] {
-        assert!(
-            !html.contains(bad),
-            "the report refers outside itself: {bad:?}"
-        );
-    }
-}
-
 #[test]
 fn a_session_gives_every_figure_and_a_self_contained_report() {
     let tmp = tempfile::tempdir().unwrap();
@@ -97,7 +73,7 @@ fn a_session_gives_every_figure_and_a_self_contained_report() {
     let out = tmp.path().join("out");
     let cat = report_data("catalogue-example.csv");
     let flights = report_data("flights-example.csv");
-    let o = hoverbench(&[
+    let o = run(&[
         "report",
         sess.to_str().unwrap(),
         "-o",
@@ -159,7 +135,7 @@ fn a_params_file_finds_its_sweep_through_its_provenance() {
     session(&sess, "sweep.csv");
     let out = tmp.path().join("figs");
     let params = sess.join("params.toml");
-    let o = hoverbench(&[
+    let o = run(&[
         "report",
         params.to_str().unwrap(),
         "-o",
@@ -193,7 +169,7 @@ fn a_plan_without_a_battery_is_one_clear_error_and_nothing_is_written() {
     let sess = tmp.path().join("s");
     session(&sess, "sweep.csv");
     let out = tmp.path().join("never");
-    let o = hoverbench(&[
+    let o = run(&[
         "report",
         sess.to_str().unwrap(),
         "-o",
@@ -300,7 +276,7 @@ fn a_plan_nested_thousands_deep_is_an_error_not_a_crash() {
     session(&sess, "sweep.csv");
     let plan = format!("{}hover 2m{}", "1x(".repeat(19_000), ")".repeat(19_000));
     let out = tmp.path().join("out");
-    let o = hoverbench(&[
+    let o = run(&[
         "report",
         sess.to_str().unwrap(),
         "-o",
@@ -363,7 +339,7 @@ fn a_params_file_alone_gives_fig3_and_the_report() {
     let out = tmp.path().join("out");
     let params = sess.join("params.toml");
     // exactly as the README writes it: `hoverbench report SESSION_OR_PARAMS -o DIR`
-    let o = hoverbench(&[
+    let o = run(&[
         "report",
         params.to_str().unwrap(),
         "-o",
@@ -393,7 +369,7 @@ fn a_params_file_alone_gives_fig3_and_the_report() {
     assert_self_contained(&html);
     // the session folder works the same
     let out2 = tmp.path().join("out2");
-    let o = hoverbench(&[
+    let o = run(&[
         "report",
         sess.to_str().unwrap(),
         "-o",
@@ -401,7 +377,7 @@ fn a_params_file_alone_gives_fig3_and_the_report() {
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     // figures that need the platform say so
-    let o = hoverbench(&[
+    let o = run(&[
         "report",
         sess.to_str().unwrap(),
         "-o",

@@ -417,18 +417,6 @@ impl Flight {
     }
 }
 
-/// One message of a binary log, reduced to the numeric fields asked for, as the
-/// first-instance `columns` readers return it (`NaN` for a missing field; [`Row`], from
-/// `rows`, says `None` instead).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Record {
-    /// Byte offset of the message in the file.
-    pub offset: u64,
-    /// The fields' values, in the order asked for (`NaN` for an optional field the message
-    /// type lacks).
-    pub values: Vec<f64>,
-}
-
 /// One message of a binary log, reduced to the numeric fields asked for; `None` for a field
 /// the message's format lacks.
 #[derive(Debug, Clone, PartialEq)]
@@ -437,20 +425,6 @@ pub struct Row {
     pub offset: u64,
     /// The fields' values, in the order asked for.
     pub values: Vec<Option<f64>>,
-}
-
-impl From<Row> for Record {
-    /// The older, NaN-for-missing form of a row.
-    fn from(r: Row) -> Self {
-        Record {
-            offset: r.offset,
-            values: r
-                .values
-                .into_iter()
-                .map(|v| v.unwrap_or(f64::NAN))
-                .collect(),
-        }
-    }
 }
 
 /// What a format decoder hands over: samples, an optional land detector, warnings.
