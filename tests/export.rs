@@ -197,10 +197,7 @@ fn no_output_overwrites_its_input_or_leaves_a_temporary_file() {
     std::fs::create_dir(&folder).unwrap();
     let out = run(&["fit", s, "-o", folder.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(2));
-    let names: Vec<String> = std::fs::read_dir(dir.path())
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
+    let names = common::file_names(dir.path());
     assert!(
         names.iter().all(|n| !n.contains(".tmp")),
         "temporary files left: {names:?}"

@@ -541,10 +541,7 @@ fn battery_tracks(log: &DataFlash<'_>, path: &Path) -> Result<Vec<Track>, Flight
                 path,
             )?;
             // Time and voltage are required fields: every row has them.
-            let rows: Vec<&Row> = rows
-                .iter()
-                .filter(|r| r.values[0].is_some() && r.values[1].is_some())
-                .collect();
+            let rows = Row::having(&rows, &[0, 1]);
             if rows.is_empty() {
                 continue;
             }

@@ -427,6 +427,21 @@ pub struct Row {
     pub values: Vec<Option<f64>>,
 }
 
+impl Row {
+    /// The rows that have a value for each of `fields` (indices into [`Row::values`]). The
+    /// readers fill a required field in every row, so this drops nothing for them; it lets
+    /// their values be read without a stand-in for "missing".
+    pub(crate) fn having<'a>(rows: &'a [Row], fields: &[usize]) -> Vec<&'a Row> {
+        rows.iter()
+            .filter(|r| {
+                fields
+                    .iter()
+                    .all(|&k| r.values.get(k).is_some_and(Option::is_some))
+            })
+            .collect()
+    }
+}
+
 /// What a format decoder hands over: samples, an optional land detector, warnings.
 #[derive(Debug, Default)]
 pub(crate) struct Decoded {
@@ -505,6 +520,21 @@ pub(crate) fn check_time(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rows_having_fields_keep_only_complete_ones() {
+        let row = |offset, values: Vec<Option<f64>>| Row { offset, values };
+        let rows = [
+            row(0, vec![Some(1.0), Some(2.0), None]),
+            row(1, vec![Some(1.0), None, Some(3.0)]),
+            row(2, vec![Some(1.0)]),
+        ];
+        let offsets =
+            |k: &[usize]| -> Vec<u64> { Row::having(&rows, k).iter().map(|r| r.offset).collect() };
+        assert_eq!(offsets(&[0, 1]), [0]);
+        assert_eq!(offsets(&[0]), [0, 1, 2]);
+        assert_eq!(offsets(&[2]), [1]);
+    }
 
     #[test]
     fn time_checks() {

@@ -572,10 +572,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
     for instance in log.instances("battery_status") {
         let rows = log.rows("battery_status", instance, &fields, path)?;
         // Time and voltage are required fields: every row has them.
-        let rows: Vec<&Row> = rows
-            .iter()
-            .filter(|r| r.values[0].is_some() && r.values[1].is_some())
-            .collect();
+        let rows = Row::having(&rows, &[0, 1]);
         if rows.is_empty() {
             continue;
         }

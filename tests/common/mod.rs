@@ -73,6 +73,16 @@ pub fn shared(rel: &str) -> String {
     shared_path(rel).to_str().unwrap().to_owned()
 }
 
+/// The names of the entries of a folder, sorted.
+pub fn file_names(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
 /// Asserts that an HTML report refers to nothing outside itself.
 pub fn assert_self_contained(html: &str) {
     for bad in [
