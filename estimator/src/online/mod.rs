@@ -266,7 +266,8 @@ pub struct Estimate {
     /// Time of the last accepted sample, s.
     pub time_s: f64,
     /// Remaining endurance in the current phase, s: how long the robot can keep hovering
-    /// (eq. 4 on the estimated pack), or stay attached (eq. 6), until the cut-off.
+    /// (eq. 4 on the estimated pack; on the ground: once it takes off), or stay attached
+    /// (eq. 6), until the cut-off.
     pub remaining_phase_s: f64,
     /// Its one-sigma band, s.
     pub remaining_phase_sigma_s: f64,
@@ -957,14 +958,24 @@ impl OnlineEstimator {
 
     fn predict(&self, t: f64) -> Prediction {
         let x = self.x;
-        let power = self.power_w(self.phase, &x);
+        // On the ground the question is how long the robot can hover once it takes off;
+        // attached, how long it can stay (eq. 6).
+        let phase_flying = self.phase != FlightPhase::Attached;
+        let power = self.power_w(
+            if phase_flying {
+                FlightPhase::Hover
+            } else {
+                FlightPhase::Attached
+            },
+            &x,
+        );
         // Sigma points: mean ± columns of the covariance's Cholesky factor.
         let l = match self.p.cholesky() {
             Some(ch) => ch.l(),
             None => Matrix::from_diagonal(&self.p.diagonal().map(|d| libm::sqrt(d.max(0.0)))),
         };
         let phase_seg = [SimSegment {
-            flying: self.phase.is_flying(),
+            flying: phase_flying,
             duration_s: f64::INFINITY,
             stop_soc: 0.0,
             ends_at_cutoff: true,
