@@ -405,11 +405,9 @@ fn state_is_small_and_fixed() {
         OnlineEstimator::state_size_bytes(),
         std::mem::size_of::<OnlineEstimator>()
     );
-    assert!(
-        OnlineEstimator::STATE_SIZE_BYTES < 2048,
-        "{}",
-        OnlineEstimator::STATE_SIZE_BYTES
-    );
+    let bytes = OnlineEstimator::state_size_bytes();
+    eprintln!("OnlineEstimator: {bytes} bytes");
+    assert!(bytes < 2048, "{bytes}");
 }
 
 #[test]
