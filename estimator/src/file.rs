@@ -894,6 +894,17 @@ mod tests {
     }
 
     #[test]
+    fn the_readme_example_sections_parse() {
+        let readme = include_str!("../../README.md");
+        let start = readme.find("[battery]\nversion = 1").expect("the README's example");
+        let block = &readme[start..start + readme[start..].find("```").unwrap()];
+        let text = format!("{}\n{block}", sample().to_toml_string());
+        let p = ParamsFile::from_toml_str(&text).unwrap().to_params().unwrap();
+        assert!((p.battery.unwrap().rated_capacity_ah - 2.2).abs() < 1e-12);
+        assert_eq!(p.vehicle.unwrap().payload_mass_kg, 0.0);
+    }
+
+    #[test]
     fn missing_fit_statistics_are_absent_not_nan() {
         let mut f = sample();
         f.fit.max_abs_residual = None;
