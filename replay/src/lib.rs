@@ -160,6 +160,10 @@ pub fn replay_flight(flight: &Flight, config: &ReplayConfig<'_>) -> Result<Fligh
         Err(e) => unavailable.push((methods::STATIC, e)),
     }
 
+    if online.is_none() && baselines.iter().all(Option::is_none) {
+        let why: Vec<String> = unavailable.iter().map(|(m, r)| format!("{m}: {r}")).collect();
+        return Err(format!("no method can run on it ({})", why.join("; ")));
+    }
     let s = &flight.samples;
     let n = s.len();
     // Checkpoint instants and the sample index each is scored at.
