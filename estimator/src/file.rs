@@ -196,6 +196,18 @@ impl BatterySection {
     }
 }
 
+impl BatteryModel {
+    /// The battery model of a `[battery]` section, checked (the error names the key).
+    pub fn from_section(section: &BatterySection) -> Result<Self, ParamsFileError> {
+        section
+            .to_model()
+            .map_err(|(_, message)| ParamsFileError::Battery {
+                path: None,
+                message,
+            })
+    }
+}
+
 /// `[vehicle]`: the robot's masses and powers (eqs. 1–2).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -798,6 +810,18 @@ mod tests {
         assert_eq!(back, f);
         let p = back.to_params().unwrap();
         let b = p.battery.unwrap();
+        assert_eq!(
+            BatteryModel::from_section(back.battery.as_ref().unwrap()).unwrap(),
+            b
+        );
+        let mut bad = back.battery.clone().unwrap();
+        bad.version = 2;
+        assert!(
+            BatteryModel::from_section(&bad)
+                .unwrap_err()
+                .to_string()
+                .contains("version")
+        );
         assert_eq!(b.cells, 3);
         assert_eq!(b.rc_time_constant_s, 30.0);
         assert!((p.vehicle.unwrap().total_mass_kg() - 0.575).abs() < 1e-12);
@@ -891,6 +915,22 @@ mod tests {
             e.contains("vehicle.structure_mass_kg") && e.contains("line"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn the_readme_example_sections_parse() {
+        let readme = include_str!("../../README.md");
+        let start = readme
+            .find("[battery]\nversion = 1")
+            .expect("the README's example");
+        let block = &readme[start..start + readme[start..].find("```").unwrap()];
+        let text = format!("{}\n{block}", sample().to_toml_string());
+        let p = ParamsFile::from_toml_str(&text)
+            .unwrap()
+            .to_params()
+            .unwrap();
+        assert!((p.battery.unwrap().rated_capacity_ah - 2.2).abs() < 1e-12);
+        assert_eq!(p.vehicle.unwrap().payload_mass_kg, 0.0);
     }
 
     #[test]

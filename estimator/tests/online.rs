@@ -397,6 +397,16 @@ fn missing_vehicle_and_bad_battery_are_errors() {
     b.ocv_cell_v[3] = 5.0;
     assert!(OnlineEstimator::new(&params(), &b, &OnlineConfig::default()).is_err());
     assert!(OnlineEstimator::from_params(&params(), &OnlineConfig::default()).is_err());
+    // Without a [battery] section: the built-in LiPo with the flight's cells and energy.
+    let b = BatteryModel::from_params_or_lipo(&params(), 3, 23.6).unwrap();
+    assert_eq!(b.chemistry, Chemistry::Lipo);
+    assert!((b.energy_wh() - 23.6).abs() < 1e-9);
+    let mut p = params();
+    p.battery = Some(file_battery());
+    assert_eq!(
+        BatteryModel::from_params_or_lipo(&p, 3, 23.6).unwrap(),
+        file_battery()
+    );
 }
 
 #[test]

@@ -132,6 +132,23 @@ impl BatteryModel {
         Ok(b)
     }
 
+    /// The parameters' battery model when they have one (a `[battery]` section), else the
+    /// built-in LiPo pack ([`Self::lipo_from_energy`]) with the cell count and rated energy of
+    /// the pack flown (e.g. from the flight's metadata).
+    pub fn from_params_or_lipo(
+        params: &crate::Params,
+        cells: u8,
+        energy_wh: f64,
+    ) -> Result<Self, EstimateError> {
+        match params.battery {
+            Some(b) => {
+                b.validate()?;
+                Ok(b)
+            }
+            None => Self::lipo_from_energy(cells, energy_wh),
+        }
+    }
+
     /// Checks every value: at least one cell, a positive capacity, a strictly increasing curve
     /// of plausible cell voltages (0.5–5.5 V), non-negative resistances, a positive time
     /// constant when there is an RC pair, and a cut-off below the full voltage.
