@@ -9,5 +9,9 @@ fn main() {
     let seed: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(0);
     let t = Instant::now();
     let r = replay_eval::run_scenario(&fam, seed, &estimator::online::OnlineConfig::default());
-    println!("{:?} in {:.2} s", r.map(|o| (o.condition, o.flights.len())), t.elapsed().as_secs_f64());
+    println!(
+        "{:?} in {:.2} s",
+        r.map(|o| (o.condition, o.flights.len())),
+        t.elapsed().as_secs_f64()
+    );
 }

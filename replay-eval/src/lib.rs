@@ -579,7 +579,9 @@ fn roll_up(results: &[(u64, Family, Result<ScenarioOutcome, String>)]) -> Vec<Gr
         });
     }
     for c in Condition::NAMES {
-        add(format!("tuning, {c}"), &|s| s.tuning && s.condition.name() == c);
+        add(format!("tuning, {c}"), &|s| {
+            s.tuning && s.condition.name() == c
+        });
     }
     for c in Chemistry::ALL {
         add(format!("chemistry {}", c.name()), &|s| {

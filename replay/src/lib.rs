@@ -161,7 +161,10 @@ pub fn replay_flight(flight: &Flight, config: &ReplayConfig<'_>) -> Result<Fligh
     }
 
     if online.is_none() && baselines.iter().all(Option::is_none) {
-        let why: Vec<String> = unavailable.iter().map(|(m, r)| format!("{m}: {r}")).collect();
+        let why: Vec<String> = unavailable
+            .iter()
+            .map(|(m, r)| format!("{m}: {r}"))
+            .collect();
         return Err(format!("no method can run on it ({})", why.join("; ")));
     }
     let s = &flight.samples;

@@ -42,10 +42,10 @@ pub fn run(args: Args) -> Result<()> {
         .skipped
         .iter()
         .map(|s| SkippedFlight {
-            name: s
-                .path
-                .file_name()
-                .map_or_else(|| s.path.display().to_string(), |n| n.to_string_lossy().into_owned()),
+            name: s.path.file_name().map_or_else(
+                || s.path.display().to_string(),
+                |n| n.to_string_lossy().into_owned(),
+            ),
             reason: s.reason.to_string(),
         })
         .collect();
