@@ -44,6 +44,7 @@ mod html;
 mod paper_figures;
 mod payload;
 mod render;
+pub mod replay;
 mod report;
 pub mod rig_gap;
 pub mod session;
