@@ -3,28 +3,12 @@
 
 use std::path::Path;
 
-use assert_cmd::Command;
 use serde_json::Value;
 
+mod common;
+use common::{ok, run};
+
 const DATA: &str = "tests/data/replay/flights";
-
-fn run(args: &[&str]) -> std::process::Output {
-    Command::cargo_bin("hoverbench")
-        .unwrap()
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn ok(args: &[&str]) -> String {
-    let out = run(args);
-    assert!(
-        out.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).unwrap()
-}
 
 fn params() -> String {
     "tests/data/replay/params.toml".to_owned()
@@ -100,7 +84,15 @@ fn out_folder_has_plots_table_and_json_and_is_replaced_whole() {
     let out = dir.path().join("replay");
     let o = out.to_str().unwrap();
     std::fs::create_dir_all(&out).unwrap();
-    std::fs::write(out.join("stale.txt"), "old").unwrap();
+    // a folder holding someone else's file is refused, untouched
+    std::fs::write(out.join("thesis.tex"), "mine").unwrap();
+    let refused = run(&["replay", "--params", &params(), DATA, "-o", o]);
+    assert_eq!(refused.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("thesis.tex"));
+    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 1);
+    std::fs::remove_file(out.join("thesis.tex")).unwrap();
+    // an earlier run's folder is replaced whole (its stale plot goes)
+    std::fs::write(out.join("replay-flight-99-gone.svg"), "old").unwrap();
     ok(&["replay", "--params", &params(), DATA, "-o", o]);
     for f in [
         "replay-flight-01-9-hover-A.svg",
@@ -113,7 +105,7 @@ fn out_folder_has_plots_table_and_json_and_is_replaced_whole() {
     ] {
         assert!(out.join(f).exists(), "{f}");
     }
-    assert!(!out.join("stale.txt").exists());
+    assert!(!out.join("replay-flight-99-gone.svg").exists());
     let csv = std::fs::read_to_string(out.join("replay.csv")).unwrap();
     assert_eq!(csv.lines().count(), 1 + 4 * 4);
     assert!(

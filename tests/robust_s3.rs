@@ -500,3 +500,32 @@ fn rig_gap_writes_its_folder_whole_and_never_over_other_files() {
     );
     assert_eq!(leftovers(d.path()), Vec::<String>::new());
 }
+
+#[test]
+fn simulate_flights_writes_its_set_whole_and_never_over_other_files() {
+    let d = tempfile::tempdir().unwrap();
+    let out_dir = d.path().join("set");
+    std::fs::create_dir(&out_dir).unwrap();
+    std::fs::write(out_dir.join("thesis.tex"), "mine").unwrap();
+    let dir = out_dir.to_str().unwrap();
+    let o = run(&["simulate-flights", "-o", dir, "--seed", "3"]);
+    assert_eq!(o.status.code(), Some(2), "{}", stdout(&o));
+    assert!(stderr(&o).contains("thesis.tex"), "{}", stderr(&o));
+    assert_eq!(
+        std::fs::read_dir(&out_dir).unwrap().count(),
+        1,
+        "nothing written beside the user's file"
+    );
+    std::fs::remove_file(out_dir.join("thesis.tex")).unwrap();
+    // twice into the same folder: the second run replaces the first
+    for seed in ["3", "4"] {
+        ok(&["simulate-flights", "-o", dir, "--seed", seed]);
+    }
+    let mut names: Vec<String> = std::fs::read_dir(&out_dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["heldout", "rig-sweep.csv", "train", "truth.json"]);
+    assert_eq!(leftovers(d.path()), Vec::<String>::new());
+}

@@ -55,7 +55,7 @@ pub enum WriteError {
         path: PathBuf,
     },
     /// The target folder holds files the output does not own: replacing it would lose them.
-    #[error("{} holds files a report does not write ({}): choose a new or empty folder, or one holding only an earlier report", path.display(), names.join(", "))]
+    #[error("{} holds files this command does not write ({}): choose a new or empty folder, or one holding only an earlier run's output", path.display(), names.join(", "))]
     Foreign {
         /// The target.
         path: PathBuf,
@@ -325,8 +325,9 @@ impl StagedDir {
             let e = e.map_err(io("reading", &self.target))?;
             let name = e.file_name();
             let is_file = e.file_type().is_ok_and(|t| t.is_file());
+            // a file the output writes, or an entry (file or folder) the caller names as its own
             let owned =
-                is_file && (built.contains(&name) || name.to_str().is_some_and(|n| (self.owns)(n)));
+                (is_file && built.contains(&name)) || name.to_str().is_some_and(|n| (self.owns)(n));
             if !owned {
                 foreign.push(name.to_string_lossy().into_owned());
             }

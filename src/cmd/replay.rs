@@ -105,7 +105,9 @@ fn flight_figure(f: &FlightReplay) -> ReplayFlightFigure {
 }
 
 fn write_folder(r: &Replay, dir: &std::path::Path) -> Result<()> {
-    let staged = outfile::StagedDir::new(dir)?;
+    // every file it writes is named replay*: an earlier run's folder is replaced whole, a
+    // folder holding anything else is refused
+    let staged = outfile::StagedDir::owning(dir, |n| n.starts_with("replay"))?;
     let flights: Vec<ReplayFlightFigure> = r.flights.iter().map(flight_figure).collect();
     let summary = ReplayErrorFigure {
         flights: r.summary.scored_flights,

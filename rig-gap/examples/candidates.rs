@@ -1,6 +1,6 @@
 //! Diagnoses one training log against one held-out log with a chosen candidate list and
 //! prints every candidate's scores and the selected parameters (a debugging aid):
-//! `cargo run -p rig-gap --example probe -- TRAIN.csv HELDOUT.csv [EFFECT…]`.
+//! `cargo run -p rig-gap --example candidates -- TRAIN.csv HELDOUT.csv [EFFECT…]`.
 
 use import::stand::{StandLog, StandOptions};
 use motor_model::Effect;
