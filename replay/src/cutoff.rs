@@ -73,19 +73,6 @@ pub fn flying_span(flight: &Flight) -> Option<(f64, f64)> {
     }
 }
 
-fn median(mut v: Vec<f64>) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    Some(if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    })
-}
-
 /// Whether a flight ended at the cut-off, with its span; the reason when it did not.
 pub fn detect(flight: &Flight) -> Result<FlightSpan, String> {
     let Some((takeoff_s, end_s)) = flying_span(flight) else {
@@ -122,7 +109,8 @@ pub fn detect(flight: &Flight) -> Result<FlightSpan, String> {
         .filter(|&k| flying(k) && s.time_s[k] >= end_s - END_WINDOW_S && s.time_s[k] <= end_s)
         .map(|k| s.voltage_v[k])
         .collect();
-    let final_v = median(last).ok_or_else(|| "no voltage at the end of the flight".to_owned())?;
+    let final_v = gap::stats::median(&last)
+        .ok_or_else(|| "no voltage at the end of the flight".to_owned())?;
     let tolerance = match flight.meta.cells {
         Some(c) => CUTOFF_TOLERANCE_CELL_V * f64::from(c),
         None => 0.02 * cutoff_v,

@@ -146,20 +146,8 @@ pub struct Summary {
     pub coverage: Coverage,
 }
 
-/// Median of a slice (`None` when empty).
-pub fn median(v: &[f64]) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    let n = s.len();
-    Some(if n % 2 == 1 {
-        s[n / 2]
-    } else {
-        0.5 * (s[n / 2 - 1] + s[n / 2])
-    })
-}
+/// Median of a slice (`None` when empty): the diagnosis's one implementation.
+pub use gap::stats::median;
 
 /// Summarises scored flights.
 pub fn summarise(flights: &[FlightReplay], skipped: usize) -> Summary {
