@@ -423,6 +423,7 @@ mod tests {
                 .collect(),
             open_circuit_v: None,
             tare_time_s: 0.0,
+            anchor_first_voltage: false,
         }
     }
 

@@ -563,6 +563,12 @@ pub struct Sweep {
     pub open_circuit_v: Option<f64>,
     /// When the load cell was tared before this sweep, on the steps' clock, s.
     pub tare_time_s: f64,
+    /// When no open-circuit voltage was measured: whether the supply's open-circuit voltage
+    /// for this sweep is set so that the model meets the measured voltage at the first step that
+    /// logs one (a battery's state of charge differs from one sweep to the next, and a sweep
+    /// that starts spinning gives no idle reading), instead of [`Param::SupplyVoltageV`]. The
+    /// sag, polarisation and discharge then show as the voltage falling from that step on.
+    pub anchor_first_voltage: bool,
 }
 
 impl Sweep {
@@ -576,13 +582,29 @@ impl Sweep {
                 ..o.point()
             })
             .collect();
-        match self.open_circuit_v {
-            Some(v) => {
-                let mut q = *p;
-                q.set(Param::SupplyVoltageV, v);
-                predict_sweep(&q, &pts)
+        let mut q = *p;
+        if let Some(v) = self.open_circuit_v {
+            q.set(Param::SupplyVoltageV, v);
+        }
+        let first_v = self
+            .steps
+            .iter()
+            .enumerate()
+            .find_map(|(k, o)| o.voltage_v.map(|v| (k, v)));
+        match first_v {
+            Some((k, v_meas)) if self.open_circuit_v.is_none() && self.anchor_first_voltage => {
+                // The bus voltage is (nearly) affine in the open-circuit voltage: two passes
+                // meet the anchor to well within a sensor's resolution.
+                let mut pred = predict_sweep(&q, &pts);
+                for _ in 0..2 {
+                    let miss = v_meas - pred[k].voltage_v;
+                    let v0 = q.get(Param::SupplyVoltageV);
+                    q.set(Param::SupplyVoltageV, (v0 + miss).max(0.01 * v0.abs()));
+                    pred = predict_sweep(&q, &pts);
+                }
+                pred
             }
-            None => predict_sweep(p, &pts),
+            _ => predict_sweep(&q, &pts),
         }
     }
 }
@@ -726,6 +748,39 @@ mod tests {
         )[0];
         assert!((driven.voltage_v - (16.8 - 0.1 * 30.0)).abs() < 1e-9);
         assert!((driven.power_w - free.power_w).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_sweep_without_an_idle_reading_is_anchored_at_its_first_voltage() {
+        let mut p = base();
+        p.set(Param::SourceResistanceOhm, 0.1);
+        // A pack at 16.2 V open circuit, whatever the fitted supply voltage says (16.8 V).
+        let steps: Vec<Observation> = [(300.0, 8.0), (600.0, 16.0), (900.0, 24.0)]
+            .iter()
+            .enumerate()
+            .map(|(k, &(thrust_g, i))| Observation {
+                thrust_g,
+                time_s: k as f64,
+                current_a: Some(i),
+                voltage_v: Some(16.2 - 0.1 * i),
+                ..Observation::default()
+            })
+            .collect();
+        let mut s = Sweep {
+            name: "pack".into(),
+            steps,
+            ..Sweep::default()
+        };
+        let fitted_v0 = s.predict(&p);
+        assert!((fitted_v0[0].voltage_v - (16.8 - 0.8)).abs() < 1e-9);
+        s.anchor_first_voltage = true;
+        for (o, pr) in s.steps.iter().zip(s.predict(&p)) {
+            let v = o.voltage_v.unwrap_or(f64::NAN);
+            assert!((pr.voltage_v - v).abs() < 1e-9, "{} vs {v}", pr.voltage_v);
+        }
+        // A measured open-circuit voltage wins over the anchor.
+        s.open_circuit_v = Some(16.5);
+        assert!((s.predict(&p)[0].voltage_v - (16.5 - 0.8)).abs() < 1e-9);
     }
 
     #[test]

@@ -701,6 +701,19 @@ pub fn diagnose(
     if !qs.contains(&Quantity::VoltageV) {
         notes.push("no supply voltage logged: supply_sag can only show through current".to_owned());
     }
+    let anchored: Vec<&str> = train
+        .iter()
+        .chain(held)
+        .filter(|s| s.sweep.open_circuit_v.is_none() && s.sweep.anchor_first_voltage)
+        .map(|s| s.sweep.name.as_str())
+        .collect();
+    if qs.contains(&Quantity::VoltageV) && !anchored.is_empty() {
+        notes.push(format!(
+            "no idle voltage before {}: each such run's open-circuit voltage is set by its first \
+             spinning step, so the supply is judged by how its voltage falls from there",
+            anchored.join(", ")
+        ));
+    }
     let mut ctx = Ctx {
         train: tr.clone(),
         held: he.clone(),

@@ -53,6 +53,7 @@ impl StandSweep {
                 steps,
                 open_circuit_v: None,
                 tare_time_s: 0.0,
+                anchor_first_voltage: false,
             },
             meta: (0..points.len())
                 .map(|i| StepMeta {
@@ -78,6 +79,7 @@ impl StandSweep {
                 steps: idx.iter().map(|&i| self.sweep.steps[i]).collect(),
                 open_circuit_v: self.sweep.open_circuit_v,
                 tare_time_s: self.sweep.tare_time_s,
+                anchor_first_voltage: self.sweep.anchor_first_voltage,
             },
             meta: idx.iter().map(|&i| self.meta[i]).collect(),
         }
@@ -240,6 +242,8 @@ pub fn runs_of_log(log: &StandLog) -> Result<Vec<StandSweep>, RigGapError> {
                 steps: obs,
                 open_circuit_v,
                 tare_time_s,
+                // Without an idle reading, the run's own first step sets its pack's state.
+                anchor_first_voltage: open_circuit_v.is_none(),
             },
             meta,
         });
