@@ -164,7 +164,11 @@ pub fn quantities(sweeps: &[&Sweep]) -> Vec<Quantity> {
 /// Starting values and weak priors for the base model from the data alone.
 pub fn initial_guess(sweeps: &[&Sweep]) -> (Params, Vec<Prior>) {
     let s = Scale::of(sweeps);
-    let steps: Vec<_> = sweeps.iter().flat_map(|s| &s.steps).collect();
+    let steps: Vec<_> = sweeps
+        .iter()
+        .flat_map(|s| &s.steps)
+        .filter(|o| !o.drive_only)
+        .collect();
     let top = steps
         .iter()
         .copied()
@@ -419,11 +423,13 @@ mod tests {
                     voltage_v: Some(pr.voltage_v),
                     speed_rpm: Some(pr.rpm),
                     torque_nm: Some(pr.torque_nm),
+                    drive_only: false,
                 })
                 .collect(),
             open_circuit_v: None,
             tare_time_s: 0.0,
             anchor_first_voltage: false,
+            tared: false,
         }
     }
 

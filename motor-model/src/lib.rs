@@ -522,11 +522,21 @@ pub struct Observation {
     pub speed_rpm: Option<f64>,
     /// Torque, N·m.
     pub torque_nm: Option<f64>,
+    /// A step that only carries the sweep's history (its thrust, time and measured current
+    /// drive the winding temperature, the battery's polarisation and charge and the load cell's
+    /// drift) but is not compared: [`Observation::measured`] gives nothing for it. Half of a
+    /// sweep's steps (every second one) keeps the other half this way, so its model sees the
+    /// load the stand really went through.
+    pub drive_only: bool,
 }
 
 impl Observation {
-    /// The measured value of a quantity, if logged.
+    /// The measured value of a quantity, if logged (never for a [`Observation::drive_only`]
+    /// step).
     pub fn measured(&self, q: Quantity) -> Option<f64> {
+        if self.drive_only {
+            return None;
+        }
         match q {
             Quantity::PowerW => self.power_w,
             Quantity::CurrentA => self.current_a,
@@ -569,6 +579,10 @@ pub struct Sweep {
     /// that starts spinning gives no idle reading), instead of [`Param::SupplyVoltageV`]. The
     /// sag, polarisation and discharge then show as the voltage falling from that step on.
     pub anchor_first_voltage: bool,
+    /// Whether the load cell was zeroed at an idle reading before this sweep (its reading at
+    /// zero thrust taken off every step): its offset is then gone, and only the drift since
+    /// the tare is left; [`Param::LoadcellOffsetG`] applies to sweeps read without a tare.
+    pub tared: bool,
 }
 
 impl Sweep {
@@ -585,6 +599,9 @@ impl Sweep {
         let mut q = *p;
         if let Some(v) = self.open_circuit_v {
             q.set(Param::SupplyVoltageV, v);
+        }
+        if self.tared {
+            q.set(Param::LoadcellOffsetG, 0.0);
         }
         let first_v = self
             .steps
@@ -781,6 +798,31 @@ mod tests {
         // A measured open-circuit voltage wins over the anchor.
         s.open_circuit_v = Some(16.5);
         assert!((s.predict(&p)[0].voltage_v - (16.5 - 0.8)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn a_tared_sweep_has_no_offset_and_a_drive_only_step_is_not_compared() {
+        let mut p = base();
+        p.set(Param::LoadcellOffsetG, 20.0);
+        let o = Observation {
+            thrust_g: 500.0,
+            power_w: Some(100.0),
+            ..Observation::default()
+        };
+        let mut s = Sweep {
+            steps: vec![o],
+            ..Sweep::default()
+        };
+        let untared = s.predict(&p)[0].thrust_true_g;
+        s.tared = true;
+        assert!((untared - 480.0).abs() < 1e-9);
+        assert!((s.predict(&p)[0].thrust_true_g - 500.0).abs() < 1e-9);
+        let d = Observation {
+            drive_only: true,
+            ..o
+        };
+        assert_eq!(d.measured(Quantity::PowerW), None);
+        assert_eq!(d.point(), o.point());
     }
 
     #[test]

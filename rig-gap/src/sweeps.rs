@@ -45,6 +45,7 @@ impl StandSweep {
                 voltage_v: Some(p.voltage_v),
                 speed_rpm: Some(p.rpm),
                 torque_nm: Some(p.torque_nm),
+                drive_only: false,
             })
             .collect();
         Self {
@@ -54,6 +55,7 @@ impl StandSweep {
                 open_circuit_v: None,
                 tare_time_s: 0.0,
                 anchor_first_voltage: false,
+                tared: false,
             },
             meta: (0..points.len())
                 .map(|i| StepMeta {
@@ -65,24 +67,32 @@ impl StandSweep {
         }
     }
 
-    /// The steps with even (`odd = false`) or odd indices, as a run of their own.
+    /// The steps with even (`odd = false`) or odd indices compared, as a run of their own; the
+    /// other steps stay in it as [`Observation::drive_only`] steps, so the winding temperature,
+    /// the pack's polarisation and charge and the load cell's drift follow the load the stand
+    /// really went through (a run of every second step alone would hold each load twice as
+    /// long as it was held).
     pub fn interleaved(&self, odd: bool) -> Self {
-        let keep = |i: &usize| (i % 2 == 1) == odd;
-        let idx: Vec<usize> = (0..self.meta.len()).filter(keep).collect();
-        Self {
-            sweep: Sweep {
-                name: format!(
-                    "{} ({} steps)",
-                    self.sweep.name,
-                    if odd { "odd" } else { "even" }
-                ),
-                steps: idx.iter().map(|&i| self.sweep.steps[i]).collect(),
-                open_circuit_v: self.sweep.open_circuit_v,
-                tare_time_s: self.sweep.tare_time_s,
-                anchor_first_voltage: self.sweep.anchor_first_voltage,
-            },
-            meta: idx.iter().map(|&i| self.meta[i]).collect(),
+        let mut sweep = self.sweep.clone();
+        sweep.name = format!(
+            "{} ({} steps)",
+            self.sweep.name,
+            if odd { "odd" } else { "even" }
+        );
+        for (i, o) in sweep.steps.iter_mut().enumerate() {
+            if (i % 2 == 1) != odd {
+                o.drive_only = true;
+            }
         }
+        Self {
+            sweep,
+            meta: self.meta.clone(),
+        }
+    }
+
+    /// Steps compared (not [`Observation::drive_only`]).
+    pub fn compared_steps(&self) -> usize {
+        self.sweep.steps.iter().filter(|o| !o.drive_only).count()
     }
 }
 
@@ -210,6 +220,7 @@ pub fn runs_of_log(log: &StandLog) -> Result<Vec<StandSweep>, RigGapError> {
                 voltage_v: s.voltage_v.filter(|v| *v > 0.0),
                 speed_rpm: s.speed_rpm.filter(|r| *r > 0.0),
                 torque_nm: s.torque_nm.map(|q| q * torque_sign).filter(|q| *q > 0.0),
+                drive_only: false,
             });
             let up = match (i.checked_sub(1).map(|p| run[p].throttle), s.throttle) {
                 (Some(Some(prev)), Some(now)) => now >= prev,
@@ -244,6 +255,7 @@ pub fn runs_of_log(log: &StandLog) -> Result<Vec<StandSweep>, RigGapError> {
                 tare_time_s,
                 // Without an idle reading, the run's own first step sets its pack's state.
                 anchor_first_voltage: open_circuit_v.is_none(),
+                tared: tare_g != 0.0,
             },
             meta,
         });
@@ -340,6 +352,32 @@ mod tests {
         assert!((r2.steps[0].thrust_g - 100.0).abs() < 1e-9);
         assert_eq!(r2.open_circuit_v, Some(12.0));
         assert_eq!(runs[0].sweep.steps[0].time_s, 4.0);
+    }
+
+    #[test]
+    fn a_half_keeps_the_other_steps_as_history() {
+        let csv = "time_s,throttle,thrust_g,voltage_v,current_a,power_w\n\
+                   0,0,0,12.0,0,0\n\
+                   4,0.3,100,11.9,2,23.8\n\
+                   8,0.6,300,11.8,6,70.8\n\
+                   12,1.0,500,11.7,10,117\n\
+                   16,0.6,300,11.8,6,70.8\n";
+        let log = StandLog::parse(csv.as_bytes().to_vec(), "h.csv", &StandOptions::default())
+            .expect("log");
+        let run = &runs_of_log(&log).expect("runs")[0];
+        let (even, odd) = (run.interleaved(false), run.interleaved(true));
+        for h in [&even, &odd] {
+            assert_eq!(h.sweep.steps.len(), 4);
+            assert_eq!(h.meta.len(), 4);
+        }
+        assert_eq!(even.compared_steps(), 2);
+        assert_eq!(odd.compared_steps(), 2);
+        for (i, (a, b)) in even.sweep.steps.iter().zip(&odd.sweep.steps).enumerate() {
+            assert_eq!(a.drive_only, i % 2 == 1);
+            assert_eq!(b.drive_only, i % 2 == 0);
+            // The history a step drives the model with is the same in both halves.
+            assert_eq!(a.point(), b.point());
+        }
     }
 
     #[test]
