@@ -1,7 +1,7 @@
 //! End-to-end tests of `hoverbench rig-gap` and `hoverbench rig-gap-eval`.
 
 mod common;
-use common::{bin, json, ok, shared};
+use common::{bin, json, ok, root, shared};
 
 #[test]
 fn rig_gap_json_on_a_one_cell_stand_names_the_sag() {
@@ -84,4 +84,32 @@ fn rig_gap_eval_runs_blind_and_makes_nothing_worse() {
     assert_eq!(v["runs"].as_array().map(Vec::len), Some(8));
     let none = &v["summary"]["none_right"];
     assert_eq!(none[0], none[1], "every none scenario called none");
+}
+
+#[test]
+fn rig_gap_with_the_physical_paper_preset_on_the_fig3_curve() {
+    let curve = root().join("rig-gap/data/paper-fig3.csv");
+    let v = json(&[
+        "rig-gap",
+        "--preset",
+        "paper",
+        "--json",
+        curve.to_str().unwrap(),
+    ]);
+    assert_eq!(v["effects"][0]["effect"], "no_load_current");
+    let notes = v["notes"].as_array().expect("notes");
+    assert!(notes.iter().any(|n| {
+        n.as_str()
+            .is_some_and(|s| s.starts_with("held fixed: kv_rpm_per_v"))
+    }));
+    let out = bin()
+        .args(["rig-gap", "--preset", "nope", curve.to_str().unwrap()])
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("unknown preset 'nope'") && err.contains("paper"),
+        "{err}"
+    );
 }

@@ -42,6 +42,8 @@ pub struct Options {
     pub max_effects: usize,
     /// The candidate effects.
     pub candidates: Vec<Effect>,
+    /// Base parameters held at known values instead of fitted (a [`crate::presets::Preset`]).
+    pub fixed: Vec<(Param, f64)>,
 }
 
 impl Default for Options {
@@ -63,6 +65,7 @@ impl Default for Options {
             stability_z: 5.0,
             max_effects: 2,
             candidates: Effect::ALL.to_vec(),
+            fixed: Vec::new(),
         }
     }
 }
@@ -297,7 +300,11 @@ impl Ctx<'_> {
         effects: &[Effect],
         short: &[Effect],
     ) -> fit::FitResult {
-        let mut free: Vec<Param> = Param::BASE.to_vec();
+        let mut free: Vec<Param> = Param::BASE
+            .iter()
+            .copied()
+            .filter(|p| !self.opts.fixed.iter().any(|f| f.0 == *p))
+            .collect();
         for e in effects {
             free.extend_from_slice(if short.contains(e) {
                 e.short_params()
@@ -705,15 +712,30 @@ pub fn diagnose(
     let all: Vec<&Sweep> = tr.iter().chain(&he).copied().collect();
     let mut notes = Vec::new();
     let qs = usable_quantities(&tr, &mut notes);
-    let (start, priors) = fit::initial_guess(&tr);
-    if !qs.contains(&Quantity::SpeedRpm) {
+    let (mut start, priors) = fit::initial_guess(&tr);
+    for &(p, v) in &opts.fixed {
+        start.set(p, v);
+    }
+    if !opts.fixed.is_empty() {
+        notes.push(format!(
+            "held fixed: {}",
+            opts.fixed
+                .iter()
+                .map(|(p, v)| format!("{} = {v:.4e}", p.name()))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    let fixed = |p: Param| opts.fixed.iter().any(|f| f.0 == p);
+    let speed_known = fixed(Param::KvRpmPerV) && fixed(Param::ThrustCoeffGPerKrpm2);
+    if !qs.contains(&Quantity::SpeedRpm) && !speed_known {
         notes.push(
             "no rotor speed logged: Kv and the thrust coefficient rest on their priors; power, \
              current and voltage are still predicted"
                 .to_owned(),
         );
     }
-    if !qs.contains(&Quantity::TorqueNm) {
+    if !qs.contains(&Quantity::TorqueNm) && !fixed(Param::TorqueCoeffNmPerKrpm2) {
         notes.push("no torque logged: the torque coefficient is set by power alone".to_owned());
     }
     if !qs.contains(&Quantity::VoltageV) {

@@ -26,6 +26,7 @@
 //! ```
 
 pub mod diagnose;
+pub mod presets;
 mod sweeps;
 
 pub use sweeps::{StandSweep, StepMeta, runs_of_log, split_default};

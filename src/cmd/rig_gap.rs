@@ -22,6 +22,11 @@ pub struct Args {
     /// training logs, or the odd steps of a single run.
     #[arg(long, value_name = "SWEEP", num_args = 1..)]
     holdout: Vec<PathBuf>,
+    /// Hold the base parameters a physical preset knows (motor, propeller, ESC) fixed instead
+    /// of fitting them: `paper` (the paper's rotor) or `ctu-2312-9450`. Their derivation is in
+    /// `rig_gap::presets`.
+    #[arg(long, value_name = "NAME")]
+    preset: Option<String>,
     #[command(flatten)]
     stand: StandArgs,
     /// Print machine-readable JSON.
@@ -188,7 +193,17 @@ pub fn run(args: Args) -> Result<()> {
     } else {
         (train, held, "--holdout".to_owned())
     };
-    let d = diagnose(&train, &held, &Options::default())?;
+    let mut opts = Options::default();
+    if let Some(name) = &args.preset {
+        let preset = rig_gap::presets::by_name(name).with_context(|| {
+            format!(
+                "unknown preset '{name}' (known: {})",
+                rig_gap::presets::NAMES.join(", ")
+            )
+        })?;
+        opts.fixed = preset.fixed;
+    }
+    let d = diagnose(&train, &held, &opts)?;
     if let Some(target) = &args.output {
         // built aside and renamed into place whole (outfile::StagedDir)
         let staged = outfile::StagedDir::owning(target, |n| n.starts_with("rig-gap"))?;
