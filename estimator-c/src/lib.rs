@@ -180,31 +180,60 @@ pub struct HbOnlineEstimate {
     pub reserved: [u8; 2],
 }
 
+/// The one mapping from the Rust estimate to the C one. The Rust [`Estimate`] cannot serve C
+/// itself: its plan fields are `Option`s (absent without a plan, not zero), which have no C
+/// layout; C gets zeros and `has_plan`/`plan_completes` bytes instead. The estimate is
+/// destructured field by field (no `..`), so a field added to [`Estimate`] fails to compile
+/// here until it is mirrored (or deliberately dropped), and the header test
+/// (`tests/c_interface.rs`) fails until the header says so too.
 impl From<&Estimate> for HbOnlineEstimate {
     fn from(e: &Estimate) -> Self {
+        let Estimate {
+            time_s,
+            remaining_phase_s,
+            remaining_phase_sigma_s,
+            remaining_plan_s,
+            remaining_plan_sigma_s,
+            plan_reserve_s,
+            plan_completes,
+            soc,
+            soc_sigma,
+            usable_capacity_ah,
+            usable_capacity_sigma_ah,
+            series_resistance_ohm,
+            series_resistance_sigma_ohm,
+            extra_power_w,
+            extra_power_sigma_w,
+            phase_power_w,
+            current_a,
+            voltage_residual_v,
+            samples_used,
+            samples_rejected,
+            flags,
+        } = *e;
         Self {
-            time_s: e.time_s,
-            remaining_phase_s: e.remaining_phase_s,
-            remaining_phase_sigma_s: e.remaining_phase_sigma_s,
-            remaining_plan_s: e.remaining_plan_s.unwrap_or(0.0),
-            remaining_plan_sigma_s: e.remaining_plan_sigma_s.unwrap_or(0.0),
-            plan_reserve_s: e.plan_reserve_s.unwrap_or(0.0),
-            soc: e.soc,
-            soc_sigma: e.soc_sigma,
-            usable_capacity_ah: e.usable_capacity_ah,
-            usable_capacity_sigma_ah: e.usable_capacity_sigma_ah,
-            series_resistance_ohm: e.series_resistance_ohm,
-            series_resistance_sigma_ohm: e.series_resistance_sigma_ohm,
-            extra_power_w: e.extra_power_w,
-            extra_power_sigma_w: e.extra_power_sigma_w,
-            phase_power_w: e.phase_power_w,
-            current_a: e.current_a,
-            voltage_residual_v: e.voltage_residual_v,
-            samples_used: e.samples_used,
-            samples_rejected: e.samples_rejected,
-            flags: e.flags,
-            has_plan: u8::from(e.remaining_plan_s.is_some()),
-            plan_completes: u8::from(e.plan_completes == Some(true)),
+            time_s,
+            remaining_phase_s,
+            remaining_phase_sigma_s,
+            remaining_plan_s: remaining_plan_s.unwrap_or(0.0),
+            remaining_plan_sigma_s: remaining_plan_sigma_s.unwrap_or(0.0),
+            plan_reserve_s: plan_reserve_s.unwrap_or(0.0),
+            soc,
+            soc_sigma,
+            usable_capacity_ah,
+            usable_capacity_sigma_ah,
+            series_resistance_ohm,
+            series_resistance_sigma_ohm,
+            extra_power_w,
+            extra_power_sigma_w,
+            phase_power_w,
+            current_a,
+            voltage_residual_v,
+            samples_used,
+            samples_rejected,
+            flags,
+            has_plan: u8::from(remaining_plan_s.is_some()),
+            plan_completes: u8::from(plan_completes == Some(true)),
             reserved: [0; 2],
         }
     }

@@ -263,35 +263,9 @@ impl LearnedBattery {
 
     /// Open-circuit voltage of one cell at state of charge `soc` (clamped to 0..1), V.
     pub fn ocv_cell_v(&self, soc: f64) -> f64 {
-        let k = &self.ocv_cell_v;
-        let n = OCV_KNOTS - 1;
-        let x = soc.clamp(0.0, 1.0) * n as f64;
-        let i = (x.floor() as usize).min(n - 1);
-        let t = x - i as f64;
-        // Fritsch–Carlson slopes (per knot interval).
-        let d = |j: usize| k[j + 1] - k[j];
-        let slope = |j: usize| -> f64 {
-            if j == 0 {
-                return d(0);
-            }
-            if j == n {
-                return d(n - 1);
-            }
-            let (a, b) = (d(j - 1), d(j));
-            if a * b <= 0.0 {
-                0.0
-            } else {
-                // Harmonic mean keeps the interpolant monotone.
-                2.0 * a * b / (a + b)
-            }
-        };
-        let (m0, m1) = (slope(i), slope(i + 1));
-        let (y0, y1) = (k[i], k[i + 1]);
-        let (t2, t3) = (t * t, t * t * t);
-        (2.0 * t3 - 3.0 * t2 + 1.0) * y0
-            + (t3 - 2.0 * t2 + t) * m0
-            + (-2.0 * t3 + 3.0 * t2) * y1
-            + (t3 - t2) * m1
+        // The workspace's one monotone cubic (Fritsch–Carlson), shared with the in-flight
+        // estimator so the curve stored in a `[battery]` section reads the same in both.
+        estimator::online::monotone_cubic(&self.ocv_cell_v, soc).0
     }
 
     /// State of charge whose open-circuit voltage is `v` per cell (inverse of

@@ -185,6 +185,19 @@ pub fn label_cell_v(c: Chemistry) -> f64 {
     }
 }
 
+/// The chemistry printed on a pack's label, as the gap diagnosis names its priors: what a user
+/// passes to `hoverbench battery learn --chemistry`. `None` for LiFePO₄, which the diagnosis has
+/// no prior for (it then picks the best-fitting prior itself).
+pub fn label_chemistry(c: Chemistry) -> Option<gap::battery::Chemistry> {
+    match c {
+        Chemistry::LiPo => Some(gap::battery::Chemistry::Lipo),
+        Chemistry::LiHv => Some(gap::battery::Chemistry::Lihv),
+        Chemistry::Nmc => Some(gap::battery::Chemistry::LiIonNmc),
+        Chemistry::Nca => Some(gap::battery::Chemistry::LiIonNca),
+        Chemistry::LiFePo4 => None,
+    }
+}
+
 /// Whether the online estimator may be tuned on this family (see the crate docs).
 pub fn is_tuning_family(f: &Family) -> bool {
     matches!(f.chemistry, Chemistry::LiPo | Chemistry::Nmc)
@@ -288,12 +301,30 @@ pub struct ScenarioOutcome {
     pub skipped: Vec<SkippedFlight>,
 }
 
-/// Runs one scenario (see the crate docs).
-pub fn run_scenario(
-    family: &Family,
-    seed: u64,
-    config: &OnlineConfig,
-) -> Result<ScenarioOutcome, EvalError> {
+/// A scenario's worlds flown and its packs learned, before any estimator runs: what
+/// [`run_scenario`] replays (kept apart so that traces and configuration sweeps need not fly
+/// the flights again).
+#[derive(Debug, Clone)]
+pub struct PreparedScenario {
+    /// Seed.
+    pub seed: u64,
+    /// World family.
+    pub family: Family,
+    /// The condition of the held-out flights.
+    pub condition: Condition,
+    /// Rig curve and rotor count (no `[battery]`: each flight gets its pack's section).
+    pub params: Params,
+    /// Packs learned.
+    pub packs: Vec<LearnedPack>,
+    /// Held-out flights with the learned pack model of their pack type.
+    pub flights: Vec<(Flight, estimator::online::BatteryModel)>,
+    /// Held-out flights that cannot be replayed (no training flight of their pack).
+    pub skipped: Vec<SkippedFlight>,
+}
+
+/// Flies a scenario's training and held-out flights and learns its packs (steps 1–3 of the
+/// crate docs).
+pub fn prepare_scenario(family: &Family, seed: u64) -> Result<PreparedScenario, EvalError> {
     let robot = Robot::of(family.robot, seed);
     let (train_plans, held_plans) = plans(family, seed);
     let (thrust, power) = robot.rig_sweep(10.0, seed);
@@ -329,11 +360,15 @@ pub fn run_scenario(
     ids.sort();
     ids.dedup();
     for id in &ids {
-        let l = gap::params_link::learn_section(model, &records, Some(id), None).map_err(|e| {
-            EvalError::Battery {
-                pack: id.clone(),
-                message: e.to_string(),
-            }
+        let l = gap::params_link::learn_section(
+            model,
+            &records,
+            Some(id),
+            label_chemistry(family.chemistry),
+        )
+        .map_err(|e| EvalError::Battery {
+            pack: id.clone(),
+            message: e.to_string(),
         })?;
         packs.push(LearnedPack {
             pack: id.clone(),
@@ -388,12 +423,31 @@ pub fn run_scenario(
             pack: id.clone(),
             message: m,
         })?;
-        let online = FileOnline::new(params, battery, *config);
+        flights.push((flight, battery));
+    }
+    Ok(PreparedScenario {
+        seed,
+        family: *family,
+        condition,
+        params,
+        packs,
+        flights,
+        skipped,
+    })
+}
+
+/// Replays a prepared scenario's held-out flights with the online estimator configured by
+/// `config` (step 4 of the crate docs).
+pub fn replay_scenario(prepared: &PreparedScenario, config: &OnlineConfig) -> ScenarioOutcome {
+    let mut flights = Vec::new();
+    let mut skipped = prepared.skipped.clone();
+    for (flight, battery) in &prepared.flights {
+        let online = FileOnline::new(prepared.params, *battery, *config);
         let rc = ReplayConfig {
-            params,
+            params: prepared.params,
             online: Some(&online),
         };
-        match replay::replay_flight(&flight, &rc) {
+        match replay::replay_flight(flight, &rc) {
             Ok(r) => flights.push(r),
             Err(reason) => skipped.push(SkippedFlight {
                 name: flight.name.clone(),
@@ -401,15 +455,24 @@ pub fn run_scenario(
             }),
         }
     }
-    Ok(ScenarioOutcome {
-        seed,
-        family: *family,
-        tuning: is_tuning_family(family),
-        condition,
-        packs,
+    ScenarioOutcome {
+        seed: prepared.seed,
+        family: prepared.family,
+        tuning: is_tuning_family(&prepared.family),
+        condition: prepared.condition,
+        packs: prepared.packs.clone(),
         flights,
         skipped,
-    })
+    }
+}
+
+/// Runs one scenario (see the crate docs): [`prepare_scenario`] then [`replay_scenario`].
+pub fn run_scenario(
+    family: &Family,
+    seed: u64,
+    config: &OnlineConfig,
+) -> Result<ScenarioOutcome, EvalError> {
+    Ok(replay_scenario(&prepare_scenario(family, seed)?, config))
 }
 
 /// How a study runs.
@@ -533,6 +596,11 @@ pub fn study(opts: &StudyOptions, progress: &(dyn Fn() + Sync)) -> Study {
             }
         }
     });
+    study_of(results)
+}
+
+/// A study from scenario results (sorted by seed here) and their roll-ups.
+pub fn study_of(mut results: Vec<(u64, Family, Result<ScenarioOutcome, String>)>) -> Study {
     results.sort_by_key(|r| r.0);
     let groups = roll_up(&results);
     Study {

@@ -227,7 +227,9 @@ impl Px4Params {
 }
 
 // Constants of PX4's online internal-resistance estimator (recursive least squares on
-// `V = OCV − R·I`): forgetting factor, start values and start covariances per cell.
+// `V = OCV − R·I`): forgetting factor, start values and start covariances per cell. Checked
+// against PX4-Autopilot `src/lib/battery/battery.h` (`LAMBDA = 0.95f`, `R_DEFAULT = 0.005f`,
+// `OCV_DEFAULT = 4.2f`, `R_COVARIANCE = 0.1f`, `OCV_COVARIANCE = 1.5f`).
 const RLS_LAMBDA: f64 = 0.95;
 const R_DEFAULT: f64 = 0.005;
 const OCV_DEFAULT: f64 = 4.2;
@@ -235,7 +237,12 @@ const R_COVARIANCE: f64 = 0.1;
 const OCV_COVARIANCE: f64 = 1.5;
 
 /// PX4's `time_remaining_s`, reimplemented from the logic of `Battery` in PX4-Autopilot's
-/// `src/lib/battery/battery.cpp` (v1.14–v1.15; our own code, not a copy):
+/// `src/lib/battery/battery.cpp` (our own code, not a copy; checked line by line against the
+/// version with `computeRemainingTime` and the RLS resistance estimator, v1.14–v1.15, and its
+/// `battery.h`; `BAT_AVRG_CURRENT` = 15 A from `src/lib/battery/battery_params_common.c`;
+/// `BAT1_V_EMPTY` 3.6 V and `BAT1_V_CHARGED` 4.05 V as PX4's parameter reference lists them
+/// for v1.14 — the `src/lib/battery/module.yaml` read (an older one) says 3.5 V empty, so
+/// that default is the one value here not confirmed in the source itself):
 ///
 /// - charge used by integrating the current (`sumDischarged`);
 /// - a voltage-based state of charge: the cell voltage corrected for the load drop with an
@@ -251,7 +258,11 @@ const OCV_COVARIANCE: f64 = 1.5;
 ///
 /// Armed here means the flight's phase is not `ground` (every sample when no phase is known).
 /// Without a logged current the method gives no prediction (PX4 would divide by
-/// `BAT_AVRG_CURRENT`, a guess). The filters run on the actual sample interval.
+/// `BAT_AVRG_CURRENT`, a guess). The filters run on the actual sample interval (PX4's
+/// `AlphaFilter`s are set up for the driver's nominal interval; the same time constants).
+/// In PX4 the load-compensated cell voltage and the RLS update happen only while the current
+/// is above `FLT_EPSILON`, the state of charge is the voltage-based one until the battery has
+/// been connected 2 s, and a capacity ≤ 0 gives no remaining time — all as here.
 #[derive(Debug, Clone)]
 pub struct Px4TimeRemaining {
     p: Px4Params,

@@ -9,6 +9,10 @@
 //! - the mission plan ([`crate::methods::mission_plan`]): the time on the ground before
 //!   take-off, then the legs of the flight, the last one "hover until empty".
 //!
+//! A section whose open-circuit curve is degenerate (spans under
+//! [`MIN_CURVE_SPAN_CELL_V`] from empty to full: a collapsed fit) is flown with the built-in
+//! LiPo table instead.
+//!
 //! The `[battery]` section describes a pack type. When a flight's metadata gives a rated energy
 //! that differs from the section's (another pack of the same cells and chemistry), the model's
 //! capacity is scaled by the ratio of the rated energies and its resistances by the inverse (a
@@ -17,8 +21,8 @@
 
 use estimator::file::ParamsFile;
 use estimator::online::{
-    BatteryModel, FlightPhase, MAX_PLAN_SEGMENTS, OnlineConfig, OnlineEstimator,
-    Sample as OnlineSample, Vehicle,
+    BatteryModel, FlightPhase, LIPO_OCV_CELL_V, MAX_PLAN_SEGMENTS, OCV_KNOTS, OnlineConfig,
+    OnlineEstimator, Sample as OnlineSample, Vehicle,
 };
 use estimator::{MissionOptions, Params, Segment};
 use flightlog::Phase;
@@ -58,6 +62,16 @@ impl FileOnline {
     pub fn battery(&self) -> &BatteryModel {
         &self.battery
     }
+}
+
+/// Least span of a usable open-circuit curve from empty to full, V per cell: every lithium
+/// chemistry spans more (LiFePO₄ about 0.6 V, LiPo about 0.9 V).
+pub const MIN_CURVE_SPAN_CELL_V: f64 = 0.3;
+
+/// True when the pack model's open-circuit curve spans less than [`MIN_CURVE_SPAN_CELL_V`] (a
+/// collapsed fit); [`FileOnline`] then flies the built-in LiPo table instead.
+pub fn curve_is_degenerate(b: &BatteryModel) -> bool {
+    b.ocv_cell_v[OCV_KNOTS - 1] - b.ocv_cell_v[0] < MIN_CURVE_SPAN_CELL_V
 }
 
 /// Phase of `flightlog` as the estimator's.
@@ -115,6 +129,12 @@ impl OnlineBuilder for FileOnline {
                 battery.series_resistance_cell_ohm /= k;
                 battery.rc_resistance_cell_ohm /= k;
             }
+        }
+        if curve_is_degenerate(&battery) {
+            // A learned curve that spans less than any lithium cell does from full to empty
+            // (a collapsed fit) says nothing about the state of charge: fly the built-in LiPo
+            // table instead, and let the filter's curve offset take up the difference.
+            battery.ocv_cell_v = LIPO_OCV_CELL_V;
         }
         let mut config = self.config;
         config.vehicle = Some(vehicle);
@@ -209,5 +229,25 @@ impl OnlinePredictor for Online {
                 ("samples_rejected", f64::from(e.samples_rejected)),
             ]
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_collapsed_curve_is_degenerate_and_a_lipo_one_is_not() {
+        let lipo = BatteryModel::lipo(3, 2.0).unwrap();
+        assert!(!curve_is_degenerate(&lipo));
+        let mut flat = lipo;
+        for (k, v) in flat.ocv_cell_v.iter_mut().enumerate() {
+            *v = 4.244 + 1e-4 * k as f64;
+        }
+        assert!(
+            flat.validate().is_ok(),
+            "strictly rising, so it passes validation"
+        );
+        assert!(curve_is_degenerate(&flat));
     }
 }

@@ -208,43 +208,7 @@ impl BatteryModel {
 
     /// Open-circuit voltage of one cell and its slope dV/dsoc at `soc` (clamped to 0..1).
     pub fn ocv_and_slope(&self, soc: f64) -> (f64, f64) {
-        let k = &self.ocv_cell_v;
-        let n = OCV_KNOTS - 1;
-        let soc = if soc.is_nan() {
-            0.0
-        } else {
-            soc.clamp(0.0, 1.0)
-        };
-        let x = soc * n as f64;
-        let i = (libm::floor(x) as usize).min(n - 1);
-        let t = x - i as f64;
-        let d = |j: usize| k[j + 1] - k[j];
-        let slope = |j: usize| -> f64 {
-            if j == 0 {
-                return d(0);
-            }
-            if j == n {
-                return d(n - 1);
-            }
-            let (a, b) = (d(j - 1), d(j));
-            if a * b <= 0.0 {
-                0.0
-            } else {
-                2.0 * a * b / (a + b)
-            }
-        };
-        let (m0, m1) = (slope(i), slope(i + 1));
-        let (y0, y1) = (k[i], k[i + 1]);
-        let (t2, t3) = (t * t, t * t * t);
-        let v = (2.0 * t3 - 3.0 * t2 + 1.0) * y0
-            + (t3 - 2.0 * t2 + t) * m0
-            + (-2.0 * t3 + 3.0 * t2) * y1
-            + (t3 - t2) * m1;
-        let dv_dt = (6.0 * t2 - 6.0 * t) * y0
-            + (3.0 * t2 - 4.0 * t + 1.0) * m0
-            + (-6.0 * t2 + 6.0 * t) * y1
-            + (3.0 * t2 - 2.0 * t) * m1;
-        (v, dv_dt * n as f64)
+        monotone_cubic(&self.ocv_cell_v, soc)
     }
 
     /// State of charge whose open-circuit voltage is `v` per cell (clamped to 0..1).
@@ -283,6 +247,47 @@ impl BatteryModel {
     pub fn energy_wh(&self) -> f64 {
         self.rated_capacity_ah * f64::from(self.cells) * self.mean_ocv_cell_v()
     }
+}
+
+/// The monotone cubic (Fritsch–Carlson) through [`OCV_KNOTS`] knots at `x` = 0, 0.05, …, 1:
+/// its value and slope d/dx at `x` (clamped to 0..1; NaN is read as 0). Between knots it is the
+/// cubic Hermite with harmonic-mean slopes (0 where the neighbouring differences change sign,
+/// one-sided at the ends), so it never overshoots a monotone table. The one interpolation of
+/// open-circuit curves in the workspace (the gap diagnosis's learned battery uses it too).
+pub fn monotone_cubic(knots: &[f64; OCV_KNOTS], x: f64) -> (f64, f64) {
+    let k = knots;
+    let n = OCV_KNOTS - 1;
+    let x = if x.is_nan() { 0.0 } else { x.clamp(0.0, 1.0) };
+    let u = x * n as f64;
+    let i = (libm::floor(u) as usize).min(n - 1);
+    let t = u - i as f64;
+    let d = |j: usize| k[j + 1] - k[j];
+    let slope = |j: usize| -> f64 {
+        if j == 0 {
+            return d(0);
+        }
+        if j == n {
+            return d(n - 1);
+        }
+        let (a, b) = (d(j - 1), d(j));
+        if a * b <= 0.0 {
+            0.0
+        } else {
+            2.0 * a * b / (a + b)
+        }
+    };
+    let (m0, m1) = (slope(i), slope(i + 1));
+    let (y0, y1) = (k[i], k[i + 1]);
+    let (t2, t3) = (t * t, t * t * t);
+    let v = (2.0 * t3 - 3.0 * t2 + 1.0) * y0
+        + (t3 - 2.0 * t2 + t) * m0
+        + (-2.0 * t3 + 3.0 * t2) * y1
+        + (t3 - t2) * m1;
+    let dv_dt = (6.0 * t2 - 6.0 * t) * y0
+        + (3.0 * t2 - 4.0 * t + 1.0) * m0
+        + (-6.0 * t2 + 6.0 * t) * y1
+        + (3.0 * t2 - 2.0 * t) * m1;
+    (v, dv_dt * n as f64)
 }
 
 /// The robot carrying the pack: eqs. (1)–(2)'s masses and powers.

@@ -67,7 +67,7 @@ mod predict;
 
 pub use battery::{
     BatteryModel, Chemistry, DEFAULT_CUTOFF_CELL_V, DEFAULT_SERIES_RESISTANCE_CELL_OHM,
-    LIPO_OCV_CELL_V, OCV_KNOTS, Vehicle,
+    LIPO_OCV_CELL_V, OCV_KNOTS, Vehicle, monotone_cubic,
 };
 pub use predict::MAX_SIM_STEPS;
 
@@ -79,7 +79,7 @@ use crate::{EstimateError, Params};
 use predict::{Pack, SimSegment};
 
 /// Number of filter states.
-pub const STATES: usize = 5;
+pub const STATES: usize = 6;
 /// Longest mission plan the estimator holds, segments.
 pub const MAX_PLAN_SEGMENTS: usize = 16;
 
@@ -91,6 +91,7 @@ const VRC: usize = 1;
 const RSCALE: usize = 2;
 const CSCALE: usize = 3;
 const PEXTRA: usize = 4;
+const VBIAS: usize = 5;
 
 /// A current beyond this is a sensor fault, not a reading, A.
 const MAX_CURRENT_A: f64 = 2000.0;
@@ -175,6 +176,14 @@ pub struct OnlineConfig {
     pub capacity_drift_per_sqrt_s: f64,
     /// Random walk of the extra power, as a fraction of the hover power per √s.
     pub extra_power_drift_fraction_per_sqrt_s: f64,
+    /// Initial standard deviation of the open-circuit curve's offset, V per cell: how far the
+    /// pack's (or the voltage sensor's) open-circuit voltage may sit from the battery model's
+    /// curve. Without this state every sample would pin the state of charge to the model's
+    /// curve, and a curve 0.1 V off moves the state of charge by tens of percent.
+    pub voltage_bias_sigma_cell_v: f64,
+    /// Random walk of that offset, V per cell per √s (the curve's shape error along the
+    /// discharge).
+    pub voltage_bias_drift_cell_v_per_sqrt_s: f64,
     /// A voltage whose innovation exceeds this many standard deviations is set aside as an
     /// outlier (after [`Self::outliers_before_resync`] in a row the filter resynchronises).
     pub outlier_gate_sigma: f64,
@@ -191,6 +200,12 @@ pub struct OnlineConfig {
     /// Model error of a predicted remaining time, as a fraction of it, added in quadrature to
     /// the spread of the state's sigma points.
     pub prediction_model_sigma_fraction: f64,
+    /// Uncertainty of the state of charge at which the loaded voltage will reach the cut-off
+    /// (the knee of the curve, which no flight has shown before it gets there), as a fraction
+    /// of the pack: it adds `end_soc_sigma × (time a full pack lasts at the phase's power)` in
+    /// quadrature to every predicted remaining time, however short. A process uncertainty, not
+    /// a state: it does not shrink as samples come in, only once the knee is reached.
+    pub end_soc_sigma: f64,
 }
 
 impl Default for OnlineConfig {
@@ -203,22 +218,40 @@ impl Default for OnlineConfig {
             power_sigma_fraction: 0.05,
             initial_soc_sigma: 0.03,
             resistance_scale_sigma: 0.4,
-            capacity_scale_sigma: 0.15,
+            capacity_scale_sigma: 0.05,
             extra_power_sigma_fraction: 0.15,
             resistance_drift_per_sqrt_s: 2e-3,
-            capacity_drift_per_sqrt_s: 2e-4,
+            capacity_drift_per_sqrt_s: 1e-5,
             extra_power_drift_fraction_per_sqrt_s: 2e-3,
+            voltage_bias_sigma_cell_v: 0.08,
+            voltage_bias_drift_cell_v_per_sqrt_s: 1e-2,
             outlier_gate_sigma: 6.0,
             outliers_before_resync: 10,
             max_step_s: 2.0,
             gap_s: 10.0,
             prediction_interval_s: 1.0,
             prediction_model_sigma_fraction: 0.02,
+            end_soc_sigma: 0.08,
         }
     }
 }
 
 impl OnlineConfig {
+    /// The defaults for a battery model whose open-circuit curve was measured on this very
+    /// pack (to a few millivolts): the curve's offset is held tight, so the voltage pins the
+    /// state of charge and the capacity is learned from how fast it falls. With a curve learned
+    /// from other flights of the pack type (the gap diagnosis) or a chemistry's table, use
+    /// [`OnlineConfig::default`], which lets the offset wander and learns the capacity slowly.
+    pub fn trusted_curve() -> Self {
+        Self {
+            capacity_scale_sigma: 0.15,
+            capacity_drift_per_sqrt_s: 2e-4,
+            voltage_bias_sigma_cell_v: 0.005,
+            voltage_bias_drift_cell_v_per_sqrt_s: 1e-4,
+            ..Self::default()
+        }
+    }
+
     fn validate(&self) -> Result<(), EstimateError> {
         for (what, v) in [
             ("voltage sigma (V)", self.voltage_sigma_v),
@@ -227,6 +260,10 @@ impl OnlineConfig {
             ("initial state-of-charge sigma", self.initial_soc_sigma),
             ("resistance scale sigma", self.resistance_scale_sigma),
             ("capacity scale sigma", self.capacity_scale_sigma),
+            (
+                "voltage bias sigma (V per cell)",
+                self.voltage_bias_sigma_cell_v,
+            ),
             (
                 "extra power sigma fraction",
                 self.extra_power_sigma_fraction,
@@ -241,6 +278,10 @@ impl OnlineConfig {
             ("resistance drift", self.resistance_drift_per_sqrt_s),
             ("capacity drift", self.capacity_drift_per_sqrt_s),
             (
+                "voltage bias drift",
+                self.voltage_bias_drift_cell_v_per_sqrt_s,
+            ),
+            (
                 "extra power drift",
                 self.extra_power_drift_fraction_per_sqrt_s,
             ),
@@ -249,6 +290,7 @@ impl OnlineConfig {
                 "prediction model sigma",
                 self.prediction_model_sigma_fraction,
             ),
+            ("end state-of-charge sigma", self.end_soc_sigma),
         ] {
             crate::curve::require_non_negative(what, v)?;
         }
@@ -653,7 +695,7 @@ impl OnlineEstimator {
     /// Current the model draws at state `x` in the current phase, and whether the pack can
     /// deliver that power.
     fn model_current(&self, x: &Vector) -> (f64, bool) {
-        let e = self.pack.ocv_v(x[SOC]) - x[VRC];
+        let e = self.pack.ocv_v(x[SOC]) - x[VRC] + x[VBIAS];
         self.pack
             .current_for_power(e, self.pack.r0_ohm * x[RSCALE], self.power_w(self.phase, x))
     }
@@ -675,8 +717,13 @@ impl OnlineEstimator {
                 + (i * r0 * c.resistance_scale_sigma) * (i * r0 * c.resistance_scale_sigma)
                 + (i * r1 * 0.5) * (i * r1 * 0.5),
         );
-        let soc_sigma = (sigma_e / slope.max(1e-3)).clamp(c.initial_soc_sigma, 0.5);
-        self.x = Vector::from([s0, i * r1, 1.0, 1.0, 0.0]);
+        // The curve's offset (unknown) enters the state of charge read from the voltage:
+        // soc = OCV⁻¹(e − bias), so ∂soc/∂bias = −1/slope.
+        let sb = c.voltage_bias_sigma_cell_v * self.pack.cells;
+        let slope = slope.max(1e-3);
+        let soc_sigma =
+            (libm::sqrt(sigma_e * sigma_e + sb * sb) / slope).clamp(c.initial_soc_sigma, 0.5);
+        self.x = Vector::from([s0, i * r1, 1.0, 1.0, 0.0, 0.0]);
         let pe_sigma = c.extra_power_sigma_fraction * self.hover_power_w;
         let vrc_sigma = 0.5 * i.abs() * r1 + 1e-3;
         self.p = Matrix::from_diagonal(&Vector::from([
@@ -685,7 +732,11 @@ impl OnlineEstimator {
             c.resistance_scale_sigma * c.resistance_scale_sigma,
             c.capacity_scale_sigma * c.capacity_scale_sigma,
             pe_sigma * pe_sigma,
+            sb * sb,
         ]));
+        let cov = -(sb * sb / slope).clamp(-0.999 * soc_sigma * sb, 0.999 * soc_sigma * sb);
+        self.p[(SOC, VBIAS)] = cov;
+        self.p[(VBIAS, SOC)] = cov;
         self.initialised = true;
         self.flags &= !Estimate::FLAG_NOT_INITIALISED;
         self.last_time_s = t;
@@ -738,6 +789,8 @@ impl OnlineEstimator {
             q[(CSCALE, CSCALE)] = c.capacity_drift_per_sqrt_s * c.capacity_drift_per_sqrt_s * h;
             let pe = c.extra_power_drift_fraction_per_sqrt_s * self.hover_power_w;
             q[(PEXTRA, PEXTRA)] = pe * pe * h;
+            let vb = c.voltage_bias_drift_cell_v_per_sqrt_s * self.pack.cells;
+            q[(VBIAS, VBIAS)] = vb * vb * h;
             self.x = fx;
             self.p = f * self.p * f.transpose() + q;
             self.condition();
@@ -749,13 +802,14 @@ impl OnlineEstimator {
             SOC => 1e-5,
             VRC => 1e-4,
             RSCALE | CSCALE => 1e-5,
+            VBIAS => 1e-4,
             _ => 1e-4 * self.hover_power_w.max(1.0),
         }
     }
 
     /// Predicted terminal voltage at state `x`.
     fn measure(&self, x: &Vector, logged: Option<f64>) -> f64 {
-        let e = self.pack.ocv_v(x[SOC]) - x[VRC];
+        let e = self.pack.ocv_v(x[SOC]) - x[VRC] + x[VBIAS];
         let r = self.pack.r0_ohm * x[RSCALE];
         match logged {
             Some(i) => e - i * r,
@@ -839,10 +893,11 @@ impl OnlineEstimator {
     fn condition(&mut self) {
         let hover = self.hover_power_w;
         let vmax = self.pack.ocv_v(1.0);
-        let lo = [0.0, -0.5 * vmax, 0.1, 0.2, -0.8 * hover];
-        let hi = [1.0, 0.5 * vmax, 10.0, 2.0, 3.0 * hover];
-        let sd_max = [0.5, 0.5 * vmax, 3.0, 0.6, 2.0 * hover];
-        let sd_min = [1e-5, 1e-5, 1e-4, 1e-4, 1e-4 * hover];
+        let n = self.pack.cells;
+        let lo = [0.0, -0.5 * vmax, 0.1, 0.2, -0.8 * hover, -0.4 * n];
+        let hi = [1.0, 0.5 * vmax, 10.0, 2.0, 3.0 * hover, 0.4 * n];
+        let sd_max = [0.5, 0.5 * vmax, 3.0, 0.6, 2.0 * hover, 0.4 * n];
+        let sd_min = [1e-5, 1e-5, 1e-4, 1e-4, 1e-4 * hover, 1e-5];
         for k in 0..STATES {
             let v = self.x[k];
             self.x[k] = if v.is_finite() {
@@ -1007,7 +1062,15 @@ impl OnlineEstimator {
             var += 0.25 * (a - b) * (a - b);
         }
         let mf = self.config.prediction_model_sigma_fraction * centre.total_s;
-        let phase_sigma = libm::sqrt(var + mf * mf);
+        // The knee: the state of charge the cut-off comes at, times the time a full pack lasts
+        // at the power it will be reached at (the phase's; for a plan, hover).
+        let knee_s = |p: f64| {
+            self.config.end_soc_sigma * 3600.0 * self.pack.capacity_ah * x[CSCALE].max(0.05)
+                / (p / self.pack.ocv_v(x[SOC]).max(1e-3)).max(1e-6)
+        };
+        let knee = knee_s(power);
+        let phase_sigma = libm::sqrt(var + mf * mf + knee * knee);
+        let hover_knee = knee_s(self.power_w(FlightPhase::Hover, &x));
 
         let plan = self.plan.map(|plan| {
             let mut segs = [SimSegment::EMPTY; MAX_PLAN_SEGMENTS + 1];
@@ -1028,9 +1091,15 @@ impl OnlineEstimator {
                 var += 0.25 * (a - b) * (a - b);
             }
             let mf = self.config.prediction_model_sigma_fraction * c.plan_s;
+            // The knee matters when the plan ends at the cut-off (else the plan's clock does).
+            let knee = if c.plan_completed && c.total_s > c.plan_s {
+                0.0
+            } else {
+                hover_knee
+            };
             PlanPrediction {
                 remaining_s: c.plan_s,
-                sigma_s: libm::sqrt(var + mf * mf),
+                sigma_s: libm::sqrt(var + mf * mf + knee * knee),
                 reserve_s: if c.plan_completed {
                     (c.total_s - c.plan_s).max(0.0)
                 } else {

@@ -1,7 +1,7 @@
 //! The pack at pack level and the forward integration of its discharge.
 
 use super::battery::BatteryModel;
-use super::{CSCALE, RSCALE, SOC, VRC, Vector};
+use super::{CSCALE, RSCALE, SOC, VBIAS, VRC, Vector};
 
 /// Most state-of-charge steps one forward integration takes (over all segments).
 pub const MAX_SIM_STEPS: usize = 256;
@@ -117,6 +117,7 @@ pub(super) fn simulate(
     };
     let mut v1 = if x[VRC].is_finite() { x[VRC] } else { 0.0 };
     let r = pack.r0_ohm * x[RSCALE].max(0.0);
+    let bias = if x[VBIAS].is_finite() { x[VBIAS] } else { 0.0 };
     let q_as = 3600.0 * pack.capacity_ah * x[CSCALE].max(0.05);
     let mut t = 0.0;
     let mut plan_s = None;
@@ -138,7 +139,7 @@ pub(super) fn simulate(
         let mut prev: Option<(f64, f64)> = None;
         let ended_by_rule;
         loop {
-            let e = pack.ocv_v(s) - v1;
+            let e = pack.ocv_v(s) - v1 + bias;
             let (i, ok) = pack.current_for_power(e, r, p);
             let v = e - i * r;
             if !ok || v <= pack.cutoff_v {
@@ -170,7 +171,7 @@ pub(super) fn simulate(
             steps += 1;
             let mut ds = SOC_STEP.min(s - seg.stop_soc);
             // Midpoint current.
-            let e_mid = pack.ocv_v(s - 0.5 * ds) - v1;
+            let e_mid = pack.ocv_v(s - 0.5 * ds) - v1 + bias;
             let (i_mid, ok_mid) = pack.current_for_power(e_mid, r, p);
             let i_step = if ok_mid { i_mid } else { i };
             let mut dt = ds * q_as / i_step.max(1e-9);

@@ -1,0 +1,88 @@
+//! Traces the online estimator through one scenario's held-out flights: at every 5 % of each
+//! flight the predicted and true remaining time and the filter's state.
+//! `cargo run --release -p replay-eval --example trace -- FAMILY SEED [STEP]`.
+
+use replay::OnlineBuilder;
+use replay::online::FileOnline;
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let fam = flight_sim::Family::parse(args.get(1).map_or("lipo/fc-10hz/paper", String::as_str))
+        .expect("a family");
+    let seed: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(0);
+    let step: f64 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(0.05);
+    let p = replay_eval::prepare_scenario(&fam, seed).expect("scenario");
+    println!("seed {seed} {} {:?}", fam.name(), p.condition);
+    for k in &p.packs {
+        println!("  pack {k:?}");
+    }
+    let config = estimator::online::OnlineConfig::default();
+    for (flight, battery) in &p.flights {
+        let Ok(span) = replay::cutoff::detect(flight) else {
+            continue;
+        };
+        let setup = replay::FlightSetup::of(flight);
+        let plan = replay::methods::mission_plan(flight, &span);
+        let online = FileOnline::new(p.params, *battery, config);
+        let mut pred = online.build(&setup, &plan, span.takeoff_s).expect("online");
+        let static_end =
+            replay::methods::StaticModel::new(&p.params, &setup, &plan, span.takeoff_s)
+                .map(|m| m.predicted_end_s())
+                .unwrap_or(f64::NAN);
+        println!(
+            "{}: {:.0} s flight, static end error {:+.1} %, pack {:.3} Ah, R {:.4} ohm/cell, chem {:?}",
+            flight.name,
+            span.duration_s(),
+            (static_end - span.end_s) / span.duration_s() * 100.0,
+            battery.rated_capacity_ah,
+            battery.series_resistance_cell_ohm,
+            battery.chemistry
+        );
+        println!(
+            "  ocv {:?} rc {:.4}/{:.0}s cutoff {:.3}",
+            battery.ocv_cell_v.map(|v| (v * 1000.0).round() / 1000.0),
+            battery.rc_resistance_cell_ohm,
+            battery.rc_time_constant_s,
+            battery.cutoff_cell_v
+        );
+        println!(
+            "  frac      t   true   pred  sigma  err%    V      I phase   | soc   cap_ah  r_ohm  extra_w"
+        );
+        let s = &flight.samples;
+        let mut next = 0.0;
+        for k in 0..s.len() {
+            let t = s.time_s[k];
+            if t > span.end_s {
+                break;
+            }
+            let sample = replay::Sample {
+                time_s: t,
+                voltage_v: s.voltage_v[k],
+                current_a: s.current_a.as_ref().map(|c| c[k]),
+                phase: s.phase.as_ref().map(|p| p[k]),
+            };
+            let r = pred.update(&sample);
+            let frac = (t - span.takeoff_s) / span.duration_s();
+            if frac >= next {
+                next += step;
+                let st = pred.final_state();
+                let get = |n: &str| st.iter().find(|x| x.0 == n).map_or(f64::NAN, |x| x.1);
+                let (pr, sg) = r.map_or((f64::NAN, f64::NAN), |r| {
+                    (r.remaining_s, r.sigma_s.unwrap_or(f64::NAN))
+                });
+                let tr = span.end_s - t;
+                println!(
+                    "  {frac:4.2} {t:7.0} {tr:6.0} {pr:6.0} {sg:6.0} {:+5.1} {:6.2} {:6.2} {:8} | {:.3} {:.3} {:.4} {:+.2}",
+                    (pr - tr) / span.duration_s() * 100.0,
+                    sample.voltage_v,
+                    sample.current_a.unwrap_or(f64::NAN),
+                    sample.phase.map_or("-", |p| p.name()),
+                    get("soc"),
+                    get("usable_capacity_ah"),
+                    get("series_resistance_ohm"),
+                    get("extra_power_w"),
+                );
+            }
+        }
+    }
+}
