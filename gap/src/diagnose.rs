@@ -65,9 +65,9 @@ pub struct DiagnoseOptions {
     /// A measured open-circuit curve that overrides the learned one's shape (every battery
     /// type), from `--battery-ocv-csv`.
     pub measured_ocv: Option<LearnedBattery>,
-    /// The packs' chemistry when known (`--chemistry`): only its prior is tried. Unknown, every
-    /// prior is tried and the best-fitting kept — and then a lost capacity cannot be told from
-    /// a chemistry whose knee comes earlier (see [`crate::battery`]).
+    /// The packs' chemistry when known (`--chemistry`): only its prior is tried. Unknown, the
+    /// priors matching the flights' full resting voltage are tried and the best-fitting kept
+    /// (see [`crate::battery`]).
     pub chemistry: Option<Chemistry>,
 }
 

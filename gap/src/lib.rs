@@ -67,7 +67,6 @@ pub mod logs;
 pub mod model;
 pub mod stats;
 pub mod summary;
-pub mod write;
 
 /// What can go wrong in the diagnosis.
 #[derive(Debug, thiserror::Error)]

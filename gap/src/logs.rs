@@ -372,31 +372,9 @@ pub fn split_flights(
     (train, held, SplitRule::EveryThirdByName)
 }
 
-/// Compares names with embedded numbers naturally ("2" before "10").
-///
-/// A copy of `flightlog`'s (crate-private there); to be replaced by it once `flightlog` exports
-/// it.
-pub fn natural_cmp(a: &str, b: &str) -> std::cmp::Ordering {
-    let key = |s: &str| -> Vec<(String, u64)> {
-        let mut out = Vec::new();
-        let mut text = String::new();
-        let mut num = String::new();
-        for ch in s.chars() {
-            if ch.is_ascii_digit() {
-                num.push(ch);
-            } else {
-                if !num.is_empty() {
-                    out.push((std::mem::take(&mut text), num.parse().unwrap_or(u64::MAX)));
-                    num.clear();
-                }
-                text.push(ch);
-            }
-        }
-        out.push((text, num.parse().unwrap_or(0)));
-        out
-    };
-    key(a).cmp(&key(b))
-}
+/// Compares names with embedded numbers naturally ("2" before "10"): `flightlog`'s order,
+/// the one natural order of the workspace.
+pub use flightlog::natural_cmp;
 
 /// One held-out flight's voltage, measured and predicted before and after (for plots).
 #[derive(Debug, Clone, Serialize)]
