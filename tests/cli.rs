@@ -1,39 +1,10 @@
 //! End-to-end tests of the `hoverbench` binary: the paper reproduction, the fit → params →
 //! estimator chain, and bad input (one clear message, exit code 2, nothing written).
 
-use std::path::{Path, PathBuf};
-use std::process::Output;
-
-use assert_cmd::Command;
 use serde_json::Value;
 
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data")
-        .join(name)
-}
-
-fn hoverbench(args: &[&str]) -> Output {
-    Command::cargo_bin("hoverbench")
-        .unwrap()
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn ok_stdout(args: &[&str]) -> String {
-    let out = hoverbench(args);
-    assert!(
-        out.status.success(),
-        "hoverbench {args:?} failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    String::from_utf8(out.stdout).unwrap()
-}
-
-fn json(args: &[&str]) -> Value {
-    serde_json::from_str(&ok_stdout(args)).unwrap()
-}
+mod common;
+use common::{data_path, json, ok, run};
 
 fn f(v: &Value, path: &str) -> f64 {
     path.split('.')
@@ -93,7 +64,7 @@ fn paper_reproduces_the_reconstruction_column() {
 
 #[test]
 fn paper_human_output() {
-    insta::assert_snapshot!(ok_stdout(&["paper"]));
+    insta::assert_snapshot!(ok(&["paper"]));
 }
 
 #[test]
@@ -101,8 +72,8 @@ fn fit_then_optimise_and_mission_from_the_written_params() {
     let dir = tempfile::tempdir().unwrap();
     let params = dir.path().join("params.toml");
     let blob = dir.path().join("params.hbp");
-    let sweep = data("paper-sweep.csv");
-    let limit = data("paper-limit-9v.csv");
+    let sweep = data_path("paper-sweep.csv");
+    let limit = data_path("paper-limit-9v.csv");
     let v = json(&[
         "fit",
         sweep.to_str().unwrap(),
@@ -171,7 +142,7 @@ fn fit_then_optimise_and_mission_from_the_written_params() {
 
 #[test]
 fn catalogue_ranking_marks_packs_over_the_limit() {
-    let cat = data("paper-batteries.csv");
+    let cat = data_path("paper-batteries.csv");
     let v = json(&[
         "optimise",
         "--paper",
@@ -193,7 +164,7 @@ fn catalogue_ranking_marks_packs_over_the_limit() {
     ]);
     assert_eq!(v[1]["over_payload_limit"], true);
     assert_eq!(f(&v, "1.endurance_min"), 0.0);
-    insta::assert_snapshot!(ok_stdout(&[
+    insta::assert_snapshot!(ok(&[
         "optimise",
         "--paper",
         "--payload-mass",
@@ -207,7 +178,7 @@ fn catalogue_ranking_marks_packs_over_the_limit() {
 fn estimate_and_mission_human_output() {
     insta::assert_snapshot!(
         "estimate",
-        ok_stdout(&[
+        ok(&[
             "estimate",
             "--paper",
             "--battery-mass",
@@ -218,7 +189,7 @@ fn estimate_and_mission_human_output() {
     );
     insta::assert_snapshot!(
         "mission",
-        ok_stdout(&[
+        ok(&[
             "mission",
             "--paper",
             "--battery-mass",
@@ -279,7 +250,7 @@ fn generic_fit_of_named_columns() {
 /// Runs a command expected to fail on bad input: exit code 2, one clear message on stderr
 /// that contains `needle`, no panic, no stdout.
 fn fails_with(args: &[&str], needle: &str) {
-    let out = hoverbench(args);
+    let out = run(args);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{args:?}: {stderr}");
     assert!(
@@ -422,7 +393,7 @@ fn a_catalogue_with_an_unterminated_quote_is_refused_at_the_quote() {
         "name,cells,capacity_mah,mass_g\nA,3,2100,170\n\"B,3,1500,120\nC,3,1000,90\n",
     )
     .unwrap();
-    let o = hoverbench(&["optimise", "--paper", "--catalogue", cat.to_str().unwrap()]);
+    let o = run(&["optimise", "--paper", "--catalogue", cat.to_str().unwrap()]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(
@@ -435,11 +406,11 @@ fn a_catalogue_with_an_unterminated_quote_is_refused_at_the_quote() {
 fn a_params_file_whose_total_contradicts_its_per_rotor_limit_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let params = dir.path().join("p.toml");
-    let o = hoverbench(&[
+    let o = run(&[
         "fit",
-        data("paper-sweep.csv").to_str().unwrap(),
+        data_path("paper-sweep.csv").to_str().unwrap(),
         "--limit",
-        data("paper-limit-9v.csv").to_str().unwrap(),
+        data_path("paper-limit-9v.csv").to_str().unwrap(),
         "-o",
         params.to_str().unwrap(),
     ]);
@@ -462,7 +433,7 @@ fn a_params_file_whose_total_contradicts_its_per_rotor_limit_is_refused() {
         .collect::<Vec<_>>()
         .join("\n");
     std::fs::write(&params, spoiled).unwrap();
-    let o = hoverbench(&[
+    let o = run(&[
         "estimate",
         "--params",
         params.to_str().unwrap(),
@@ -488,7 +459,7 @@ fn a_params_file_whose_total_contradicts_its_per_rotor_limit_is_refused() {
 #[test]
 fn a_mission_plan_nested_thousands_deep_is_an_error_not_a_crash() {
     let plan = format!("{}hover 2m{}", "1x(".repeat(19_000), ")".repeat(19_000));
-    let o = hoverbench(&[
+    let o = run(&[
         "mission",
         "--paper",
         "--battery-mass",
@@ -506,7 +477,7 @@ fn a_mission_plan_nested_thousands_deep_is_an_error_not_a_crash() {
 #[test]
 fn sim_rig_prints_its_port_as_json() {
     use std::io::BufRead;
-    let mut child = std::process::Command::new(assert_cmd::cargo::cargo_bin("hoverbench"))
+    let mut child = common::bin()
         .args(["sim-rig", "--json", "--speed", "10"])
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::null())
@@ -526,7 +497,7 @@ fn sim_rig_prints_its_port_as_json() {
 
 #[test]
 fn a_bare_mass_implausible_in_kg_suggests_grams() {
-    let o = hoverbench(&[
+    let o = run(&[
         "estimate",
         "--paper",
         "--structure-mass",

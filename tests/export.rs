@@ -8,34 +8,21 @@ use common::{data, ok, run, shared};
 #[test]
 fn px4_and_ardupilot_files_from_a_real_stand_export() {
     let sweep = shared("rcbenchmark/StepsTest_2020-05-22_102946.csv");
-    let px4 = ok(&[
-        "export",
-        "px4",
-        "--sweep",
-        &sweep,
-        "--takeoff-mass",
-        "80g",
-        "--cells",
-        "2",
-        "--capacity",
-        "650",
-    ]);
-    let px4 = px4.replace(&sweep, "SWEEP");
-    insta::assert_snapshot!("px4_params", px4);
-    let ardu = ok(&[
-        "export",
-        "ardupilot",
-        "--sweep",
-        &sweep,
-        "--takeoff-mass",
-        "80g",
-        "--cells",
-        "2",
-        "--capacity",
-        "650",
-    ]);
-    let ardu = ardu.replace(&sweep, "SWEEP");
-    insta::assert_snapshot!("ardupilot_param", ardu);
+    for (flavour, snapshot) in [("px4", "px4_params"), ("ardupilot", "ardupilot_param")] {
+        let out = ok(&[
+            "export",
+            flavour,
+            "--sweep",
+            &sweep,
+            "--takeoff-mass",
+            "80g",
+            "--cells",
+            "2",
+            "--capacity",
+            "650",
+        ]);
+        insta::assert_snapshot!(snapshot, out.replace(&sweep, "SWEEP"));
+    }
 }
 
 #[test]
@@ -210,10 +197,7 @@ fn no_output_overwrites_its_input_or_leaves_a_temporary_file() {
     std::fs::create_dir(&folder).unwrap();
     let out = run(&["fit", s, "-o", folder.to_str().unwrap()]);
     assert_eq!(out.status.code(), Some(2));
-    let names: Vec<String> = std::fs::read_dir(dir.path())
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
+    let names = common::file_names(dir.path());
     assert!(
         names.iter().all(|n| !n.contains(".tmp")),
         "temporary files left: {names:?}"

@@ -1,18 +1,19 @@
 //! `hoverbench flights` end to end on the real logs in `../shared/data/real/flightlogs/`
 //! (which CI has beside the clone).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
-use assert_cmd::Command;
 use serde_json::Value;
 
+mod common;
+use common::{bin, json, shared_path};
+
 fn logs() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/real/flightlogs")
+    shared_path("flightlogs")
 }
 
 fn flights(args: &[&str]) -> std::process::Output {
-    Command::cargo_bin("hoverbench")
-        .unwrap()
+    bin()
         .current_dir(logs())
         .arg("flights")
         .args(args)
@@ -119,18 +120,7 @@ fn sidecar_overrides_the_log_and_says_so() {
     )
     .unwrap();
     std::fs::write(dir.path().join("flights.toml"), "cells = 4\n").unwrap();
-    let out = Command::cargo_bin("hoverbench")
-        .unwrap()
-        .args(["flights", "--json"])
-        .arg(dir.path())
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v = json(&["flights", "--json", dir.path().to_str().unwrap()]);
     let m = &v["flights"][0]["metadata"];
     assert_eq!(m["capacity_mah"]["value"], 5000.0);
     assert_eq!(m["capacity_mah"]["source"], "sidecar (solo.toml)");
@@ -156,18 +146,7 @@ fn a_voltage_implausible_for_the_cells_of_the_metadata_is_skipped() {
     )
     .unwrap();
     std::fs::write(dir.path().join("flights.toml"), "cells = 3\n").unwrap();
-    let out = Command::cargo_bin("hoverbench")
-        .unwrap()
-        .args(["flights", "--json"])
-        .arg(dir.path())
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let v = json(&["flights", "--json", dir.path().to_str().unwrap()]);
     assert_eq!(v["flights"].as_array().unwrap().len(), 1);
     assert_eq!(v["flights"][0]["name"], "ok");
     let reason = v["skipped"][0]["reason"].as_str().unwrap();

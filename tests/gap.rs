@@ -1,45 +1,27 @@
 //! `hoverbench simulate-flights`, `gap` and `gap-eval` end to end, and the gap on real
 //! Crazyflie flights (read from `../shared/data/real/crazyflie`, which CI has beside the clone).
 
-use std::path::Path;
-
-use assert_cmd::Command;
 use serde_json::Value;
 
-fn json(args: &[&str]) -> Value {
-    let out = Command::cargo_bin("hoverbench")
-        .unwrap()
-        .args(args)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).unwrap()
-}
+mod common;
+use common::{data_path, json, ok, root, run, shared_path};
 
 #[test]
 fn simulated_set_is_diagnosed_from_its_files_without_the_truth() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("set");
     let o = out.to_str().unwrap();
-    Command::cargo_bin("hoverbench")
-        .unwrap()
-        .args([
-            "simulate-flights",
-            "-o",
-            o,
-            "--family",
-            "nmc/fc-10hz/paper",
-            "--effect",
-            "capacity_fade=0.12",
-            "--seed",
-            "4",
-        ])
-        .assert()
-        .success();
+    ok(&[
+        "simulate-flights",
+        "-o",
+        o,
+        "--family",
+        "nmc/fc-10hz/paper",
+        "--effect",
+        "capacity_fade=0.12",
+        "--seed",
+        "4",
+    ]);
     // The truth lies beside the flights, in a file the reader does not take.
     let truth: Value =
         serde_json::from_slice(&std::fs::read(out.join("truth.json")).unwrap()).unwrap();
@@ -52,18 +34,14 @@ fn simulated_set_is_diagnosed_from_its_files_without_the_truth() {
     .unwrap();
     // The rig sweep fits into a parameter file as a bench's would.
     let params = dir.path().join("params.toml");
-    Command::cargo_bin("hoverbench")
-        .unwrap()
-        .args([
-            "fit",
-            out.join("rig-sweep.csv").to_str().unwrap(),
-            "--volts",
-            "12.5",
-            "-o",
-            params.to_str().unwrap(),
-        ])
-        .assert()
-        .success();
+    ok(&[
+        "fit",
+        out.join("rig-sweep.csv").to_str().unwrap(),
+        "--volts",
+        "12.5",
+        "-o",
+        params.to_str().unwrap(),
+    ]);
     let train = out.join("train");
     let held = out.join("heldout");
     let v = json(&[
@@ -86,18 +64,14 @@ fn simulated_set_is_diagnosed_from_its_files_without_the_truth() {
     assert!(v["where"]["by_phase"].is_array());
     // The plots, before and after.
     let plots = dir.path().join("plots");
-    Command::cargo_bin("hoverbench")
-        .unwrap()
-        .args([
-            "gap",
-            train.to_str().unwrap(),
-            "--holdout",
-            held.to_str().unwrap(),
-            "-o",
-            plots.to_str().unwrap(),
-        ])
-        .assert()
-        .success();
+    ok(&[
+        "gap",
+        train.to_str().unwrap(),
+        "--holdout",
+        held.to_str().unwrap(),
+        "-o",
+        plots.to_str().unwrap(),
+    ]);
     for f in ["gap-voltage-over-time", "gap-residual-by-phase"] {
         for ext in ["svg", "png"] {
             assert!(plots.join(format!("{f}.{ext}")).exists(), "{f}.{ext}");
@@ -128,18 +102,14 @@ fn gap_eval_reports_per_family() {
     assert!(groups.iter().any(|g| g["name"] == "lfp/lab-1hz/paper"));
     assert!(v["confusion"].is_array());
     // An unknown family is an error that says what families look like.
-    let out = Command::cargo_bin("hoverbench")
-        .unwrap()
-        .args(["gap-eval", "--families", "lead-acid"])
-        .output()
-        .unwrap();
+    let out = run(&["gap-eval", "--families", "lead-acid"]);
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("chemistry/logging/robot"));
 }
 
 #[test]
 fn crazyflie_with_the_learned_battery() {
-    let cf = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/real/crazyflie");
+    let cf = shared_path("crazyflie");
     let v = json(&["gap", cf.to_str().unwrap(), "--json"]);
     assert!(
         v["baseline_source"]
@@ -182,19 +152,15 @@ const CRAZYFLIE_RMSE_V: f64 = 0.106;
 fn text_and_json_report_the_same_shares_and_errors() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("set");
-    Command::cargo_bin("hoverbench")
-        .unwrap()
-        .args([
-            "simulate-flights",
-            "-o",
-            out.to_str().unwrap(),
-            "--effect",
-            "internal_resistance=0.06",
-            "--seed",
-            "5",
-        ])
-        .assert()
-        .success();
+    ok(&[
+        "simulate-flights",
+        "-o",
+        out.to_str().unwrap(),
+        "--effect",
+        "internal_resistance=0.06",
+        "--seed",
+        "5",
+    ]);
     let (train, held) = (out.join("train"), out.join("heldout"));
     let args = [
         "gap",
@@ -203,11 +169,7 @@ fn text_and_json_report_the_same_shares_and_errors() {
         held.to_str().unwrap(),
     ];
     let v = json(&[&args[..], &["--json"]].concat());
-    let text = Command::cargo_bin("hoverbench")
-        .unwrap()
-        .args(args)
-        .output()
-        .unwrap();
+    let text = run(&args);
     assert!(text.status.success());
     let text = String::from_utf8(text.stdout).unwrap();
     let effects = v["effects"].as_array().unwrap();
@@ -253,7 +215,7 @@ fn text_and_json_report_the_same_shares_and_errors() {
 
 #[test]
 fn table_i_summary_says_how_much_the_printed_eq8_accounts_for() {
-    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/table-i.csv");
+    let file = data_path("table-i.csv");
     let v = json(&["gap-summary", file.to_str().unwrap(), "--paper", "--json"]);
     let g = &v[0];
     assert!((g["printed_min"].as_f64().unwrap() - 103.33).abs() < 0.01);
@@ -265,17 +227,13 @@ fn table_i_summary_says_how_much_the_printed_eq8_accounts_for() {
 fn one_flight_is_localised_and_says_how_many_more_the_attribution_needs() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("set");
-    Command::cargo_bin("hoverbench")
-        .unwrap()
-        .args([
-            "simulate-flights",
-            "-o",
-            out.to_str().unwrap(),
-            "--seed",
-            "6",
-        ])
-        .assert()
-        .success();
+    ok(&[
+        "simulate-flights",
+        "-o",
+        out.to_str().unwrap(),
+        "--seed",
+        "6",
+    ]);
     let one = std::fs::read_dir(out.join("train"))
         .unwrap()
         .map(|e| e.unwrap().path())
@@ -284,11 +242,7 @@ fn one_flight_is_localised_and_says_how_many_more_the_attribution_needs() {
     // A file nobody can read sits beside it: its reason prints first.
     let bad = out.join("train").join("broken.csv");
     std::fs::write(&bad, "not,a\nflight\n").unwrap();
-    let o = Command::cargo_bin("hoverbench")
-        .unwrap()
-        .args(["gap", one.to_str().unwrap(), bad.to_str().unwrap()])
-        .output()
-        .unwrap();
+    let o = run(&["gap", one.to_str().unwrap(), bad.to_str().unwrap()]);
     let text = String::from_utf8_lossy(&o.stdout);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{text}\n{err}");
@@ -305,12 +259,8 @@ fn one_flight_is_localised_and_says_how_many_more_the_attribution_needs() {
 
 /// Runs `hoverbench gap` on a shared folder of real logs: (exit code, stdout, stderr).
 fn gap_on_shared(folder: &str) -> (Option<i32>, String, String) {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join(folder);
-    let o = Command::cargo_bin("hoverbench")
-        .unwrap()
-        .args(["gap", dir.to_str().unwrap()])
-        .output()
-        .unwrap();
+    let dir = root().join(folder);
+    let o = run(&["gap", dir.to_str().unwrap()]);
     (
         o.status.code(),
         String::from_utf8_lossy(&o.stdout).into_owned(),

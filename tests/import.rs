@@ -2,42 +2,22 @@
 //! headerless sweep without voltage (read from `../shared/data/real`, which CI has beside the
 //! clone).
 
-use std::path::{Path, PathBuf};
-
-use assert_cmd::Command;
 use serde_json::Value;
 
-fn shared(rel: &str) -> String {
-    let p: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/real")
-        .join(rel);
-    p.to_str().unwrap().to_owned()
-}
-
-fn run(args: &[&str]) -> (i32, String, String) {
-    let out = Command::cargo_bin("hoverbench")
-        .unwrap()
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8(out.stdout).unwrap(),
-        String::from_utf8(out.stderr).unwrap(),
-    )
-}
+mod common;
+use common::{outcome, shared};
 
 #[test]
 fn rcbenchmark_export_imports_and_fits() {
     let file = shared("rcbenchmark/StepsTest_2020-06-16_220513.csv");
     let dir = tempfile::tempdir().unwrap();
     let sweep = dir.path().join("sweep.csv");
-    let (code, _, err) = run(&["import", &file, "-o", sweep.to_str().unwrap()]);
+    let (code, _, err) = outcome(&["import", &file, "-o", sweep.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
     // The converted sweep fits exactly like the original export.
-    let (code, a, err) = run(&["fit", &file, "--json"]);
+    let (code, a, err) = outcome(&["fit", &file, "--json"]);
     assert_eq!(code, 0, "{err}");
-    let (code, b, err) = run(&["fit", sweep.to_str().unwrap(), "--json"]);
+    let (code, b, err) = outcome(&["fit", sweep.to_str().unwrap(), "--json"]);
     assert_eq!(code, 0, "{err}");
     let (a, b): (Value, Value) = (
         serde_json::from_str(&a).unwrap(),
@@ -61,7 +41,7 @@ fn rcbenchmark_export_imports_and_fits() {
 #[test]
 fn ctu_mrs_table_needs_a_filter_and_fits_with_one() {
     let file = shared("ctu-mrs/motor_tests.csv");
-    let (code, out, err) = run(&[
+    let (code, out, err) = outcome(&[
         "fit",
         &file,
         "--where",
@@ -73,7 +53,7 @@ fn ctu_mrs_table_needs_a_filter_and_fits_with_one() {
     assert_eq!(code, 0, "{err}");
     let v: Value = serde_json::from_str(&out).unwrap();
     assert_eq!(v["n_points"], 6);
-    let (code, _, err) = run(&["fit", &file, "--where", "propeller=none"]);
+    let (code, _, err) = outcome(&["fit", &file, "--where", "propeller=none"]);
     assert_eq!(code, 2);
     assert!(err.contains("propeller=Carbon fiber 9450"), "{err}");
 }
@@ -82,16 +62,16 @@ fn ctu_mrs_table_needs_a_filter_and_fits_with_one() {
 fn sweep_without_voltage_says_what_cannot_be_fitted() {
     let file = shared("mit-gfx/motor_14inch_prop.txt");
     let cols = "esc_us,torque_nm,thrust_n,rpm,current_a";
-    let (code, _, err) = run(&["fit", &file]);
+    let (code, _, err) = outcome(&["fit", &file]);
     assert_eq!(code, 2);
     assert!(err.contains("name the columns"), "{err}");
-    let (code, _, err) = run(&["fit", &file, "--columns", cols]);
+    let (code, _, err) = outcome(&["fit", &file, "--columns", cols]);
     assert_eq!(code, 2);
     assert!(err.contains("electrical power cannot be computed"), "{err}");
-    let (code, out, err) = run(&["import", &file, "--columns", cols]);
+    let (code, out, err) = outcome(&["import", &file, "--columns", cols]);
     assert_eq!(code, 0, "{err}");
     assert!(out.contains("cannot: electrical power"), "{out}");
-    let (code, out, err) = run(&["fit", &file, "--columns", cols, "--volts", "11.1", "--json"]);
+    let (code, out, err) = outcome(&["fit", &file, "--columns", cols, "--volts", "11.1", "--json"]);
     assert_eq!(code, 0, "{err}");
     let v: Value = serde_json::from_str(&out).unwrap();
     assert!(v["notes"].to_string().contains("--volts"));
@@ -112,7 +92,7 @@ fn a_sweep_written_by_import_is_read_by_report() {
     }
     std::fs::write(&csv, text).unwrap();
     let sweep = dir.path().join("sweep.csv");
-    let (code, _, err) = run(&[
+    let (code, _, err) = outcome(&[
         "import",
         csv.to_str().unwrap(),
         "-o",
@@ -130,7 +110,7 @@ fn a_sweep_written_by_import_is_read_by_report() {
         "expected empty spread cells:\n{written}"
     );
     let params = dir.path().join("params.toml");
-    let (code, _, err) = run(&[
+    let (code, _, err) = outcome(&[
         "fit",
         sweep.to_str().unwrap(),
         "-o",
@@ -138,7 +118,7 @@ fn a_sweep_written_by_import_is_read_by_report() {
     ]);
     assert_eq!(code, 0, "{err}");
     let out = dir.path().join("report");
-    let (code, _, err) = run(&[
+    let (code, _, err) = outcome(&[
         "report",
         params.to_str().unwrap(),
         "--sweep",
@@ -156,7 +136,7 @@ fn a_sweep_written_by_import_is_read_by_report() {
 
 #[test]
 fn a_table_of_several_propellers_warns_and_points_to_where() {
-    let (code, _, err) = run(&["import", &shared("ctu-mrs/motor_tests.csv")]);
+    let (code, _, err) = outcome(&["import", &shared("ctu-mrs/motor_tests.csv")]);
     assert_eq!(code, 0, "{err}");
     assert!(
         err.contains("column \"propeller\" takes") && err.contains("--where \"propeller="),
@@ -199,7 +179,7 @@ fn silently_wrong_tables_are_refused_with_line_and_column() {
     for (name, bytes, expected) in cases {
         let p = dir.path().join(name);
         std::fs::write(&p, bytes).unwrap();
-        let (code, _, err) = run(&["import", p.to_str().unwrap()]);
+        let (code, _, err) = outcome(&["import", p.to_str().unwrap()]);
         assert_eq!(code, 2, "{name}: {err}");
         let p = p.to_str().unwrap();
         assert!(err.contains(&expected.replace(name, p)), "{name}: {err}");
@@ -207,7 +187,7 @@ fn silently_wrong_tables_are_refused_with_line_and_column() {
     // NaN spread
     let p = dir.path().join("nan-std.csv");
     std::fs::write(&p, "thrust_g,thrust_std_g,power_w\n1,NaN,2\n4,0.1,5\n").unwrap();
-    let (code, _, err) = run(&["import", p.to_str().unwrap()]);
+    let (code, _, err) = outcome(&["import", p.to_str().unwrap()]);
     assert_eq!(code, 2, "{err}");
     assert!(
         err.contains("line 2, column \"thrust_std_g\": \"NaN\" is not a finite number"),

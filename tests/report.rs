@@ -8,35 +8,34 @@ use std::process::Output;
 use assert_cmd::Command;
 use estimator::file::Provenance;
 
-fn root() -> &'static Path {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn data(name: &str) -> PathBuf {
-    root().join("tests/data").join(name)
-}
+mod common;
+use common::{assert_self_contained, data_path, file_names, root, run};
 
 fn report_data(name: &str) -> PathBuf {
     root().join("reports/tests/data").join(name)
 }
 
-fn hoverbench(args: &[&str]) -> Output {
-    Command::cargo_bin("hoverbench")
-        .unwrap()
-        .args(args)
-        .output()
-        .unwrap()
+/// Runs `hoverbench report INPUT -o OUT FLAGS`.
+fn report(input: &Path, out: &Path, flags: &[&str]) -> Output {
+    let mut args = vec![
+        "report",
+        input.to_str().unwrap(),
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(flags);
+    run(&args)
 }
 
 /// A session folder: `params.toml` fitted from the paper sweep with the 9 V limit sweep, and a
 /// `sweep.csv` with a `power_std_w` column (1 % of the power) so that Fig. 3 has error bars.
 fn session(dir: &Path, input_file: &str) {
-    let (sweep, sweep_bytes) = import::Table::read(&data("paper-sweep.csv")).unwrap();
+    let (sweep, sweep_bytes) = import::Table::read(&data_path("paper-sweep.csv")).unwrap();
     let xy = sweep
         .xy("thrust_g", &import::YSource::power_default())
         .unwrap();
     let fitted = fit::fit_polynomial(&xy.x, &xy.y, 5).unwrap();
-    let (limit_table, limit_bytes) = import::Table::read(&data("paper-limit-9v.csv")).unwrap();
+    let (limit_table, limit_bytes) = import::Table::read(&data_path("paper-limit-9v.csv")).unwrap();
     let std = limit_table.column("thrust_std_g").unwrap();
     let limit = fit::thrust_limit(
         &limit_table.column("throttle").unwrap(),
@@ -78,17 +77,6 @@ fn session(dir: &Path, input_file: &str) {
     std::fs::write(dir.join("sweep.csv"), csv).unwrap();
 }
 
-fn assert_self_contained(html: &str) {
-    for bad in [
-        "http://", "https://", "file:", "<script", "<link", "<img", "@import", "url(",
-    ] {
-        assert!(
-            !html.contains(bad),
-            "the report refers outside itself: {bad:?}"
-        );
-    }
-}
-
 #[test]
 fn a_session_gives_every_figure_and_a_self_contained_report() {
     let tmp = tempfile::tempdir().unwrap();
@@ -97,22 +85,22 @@ fn a_session_gives_every_figure_and_a_self_contained_report() {
     let out = tmp.path().join("out");
     let cat = report_data("catalogue-example.csv");
     let flights = report_data("flights-example.csv");
-    let o = hoverbench(&[
-        "report",
-        sess.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--structure-mass",
-        "431g",
-        "--avionics-power",
-        "2.44",
-        "--catalogue",
-        cat.to_str().unwrap(),
-        "--flights",
-        flights.to_str().unwrap(),
-        "--plan",
-        "3x(hover 2m; attach 30m); hover until empty",
-    ]);
+    let o = report(
+        &sess,
+        &out,
+        &[
+            "--structure-mass",
+            "431g",
+            "--avionics-power",
+            "2.44",
+            "--catalogue",
+            cat.to_str().unwrap(),
+            "--flights",
+            flights.to_str().unwrap(),
+            "--plan",
+            "3x(hover 2m; attach 30m); hover until empty",
+        ],
+    );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let stdout = String::from_utf8(o.stdout).unwrap();
     for stem in [
@@ -143,11 +131,7 @@ fn a_session_gives_every_figure_and_a_self_contained_report() {
     assert!(html.contains("Battery-A (TP-2100-3S1P)") || html.contains("TP-2100-3S1P (Battery-A)"));
     assert!(html.contains("Fig. 7 · Mission timeline"));
     // Nothing but the report's own files.
-    let mut names: Vec<String> = std::fs::read_dir(&out)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
+    let names = file_names(&out);
     assert_eq!(names.len(), 11, "{names:?}");
 }
 
@@ -159,21 +143,21 @@ fn a_params_file_finds_its_sweep_through_its_provenance() {
     session(&sess, "sweep.csv");
     let out = tmp.path().join("figs");
     let params = sess.join("params.toml");
-    let o = hoverbench(&[
-        "report",
-        params.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--structure-mass",
-        "0.431",
-        "--avionics-power",
-        "2.44",
-        "--battery-mass",
-        "144g",
-        "--battery-energy-density",
-        "164",
-        "--json",
-    ]);
+    let o = report(
+        &params,
+        &out,
+        &[
+            "--structure-mass",
+            "0.431",
+            "--avionics-power",
+            "2.44",
+            "--battery-mass",
+            "144g",
+            "--battery-energy-density",
+            "164",
+            "--json",
+        ],
+    );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     let written = v["written"].as_array().unwrap();
@@ -193,18 +177,18 @@ fn a_plan_without_a_battery_is_one_clear_error_and_nothing_is_written() {
     let sess = tmp.path().join("s");
     session(&sess, "sweep.csv");
     let out = tmp.path().join("never");
-    let o = hoverbench(&[
-        "report",
-        sess.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--structure-mass",
-        "431g",
-        "--avionics-power",
-        "2.44",
-        "--plan",
-        "hover until empty",
-    ]);
+    let o = report(
+        &sess,
+        &out,
+        &[
+            "--structure-mass",
+            "431g",
+            "--avionics-power",
+            "2.44",
+            "--plan",
+            "hover until empty",
+        ],
+    );
     assert_eq!(o.status.code(), Some(2));
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("--plan needs a battery"), "{err}");
@@ -300,22 +284,22 @@ fn a_plan_nested_thousands_deep_is_an_error_not_a_crash() {
     session(&sess, "sweep.csv");
     let plan = format!("{}hover 2m{}", "1x(".repeat(19_000), ")".repeat(19_000));
     let out = tmp.path().join("out");
-    let o = hoverbench(&[
-        "report",
-        sess.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-        "--structure-mass",
-        "431g",
-        "--avionics-power",
-        "2.44",
-        "--battery-mass",
-        "144g",
-        "--battery-energy-density",
-        "164",
-        "--plan",
-        &plan,
-    ]);
+    let o = report(
+        &sess,
+        &out,
+        &[
+            "--structure-mass",
+            "431g",
+            "--avionics-power",
+            "2.44",
+            "--battery-mass",
+            "144g",
+            "--battery-energy-density",
+            "164",
+            "--plan",
+            &plan,
+        ],
+    );
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(2), "{err}");
     assert!(err.contains("nested more than 32 deep"), "{err}");
@@ -363,18 +347,9 @@ fn a_params_file_alone_gives_fig3_and_the_report() {
     let out = tmp.path().join("out");
     let params = sess.join("params.toml");
     // exactly as the README writes it: `hoverbench report SESSION_OR_PARAMS -o DIR`
-    let o = hoverbench(&[
-        "report",
-        params.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    let o = report(&params, &out, &[]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let mut names: Vec<String> = std::fs::read_dir(&out)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    names.sort();
+    let names = file_names(&out);
     assert_eq!(
         names,
         [
@@ -393,22 +368,10 @@ fn a_params_file_alone_gives_fig3_and_the_report() {
     assert_self_contained(&html);
     // the session folder works the same
     let out2 = tmp.path().join("out2");
-    let o = hoverbench(&[
-        "report",
-        sess.to_str().unwrap(),
-        "-o",
-        out2.to_str().unwrap(),
-    ]);
+    let o = report(&sess, &out2, &[]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     // figures that need the platform say so
-    let o = hoverbench(&[
-        "report",
-        sess.to_str().unwrap(),
-        "-o",
-        out2.to_str().unwrap(),
-        "--plan",
-        "hover until empty",
-    ]);
+    let o = report(&sess, &out2, &["--plan", "hover until empty"]);
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("--plan needs the platform"));
 }

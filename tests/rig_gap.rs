@@ -1,31 +1,15 @@
 //! End-to-end tests of `hoverbench rig-gap` and `hoverbench rig-gap-eval`.
 
-use std::path::{Path, PathBuf};
-
-use assert_cmd::Command;
-
-fn shared(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/real")
-        .join(rel)
-}
+mod common;
+use common::{bin, json, ok, shared};
 
 #[test]
 fn rig_gap_json_on_a_one_cell_stand_names_the_sag() {
-    let out = Command::cargo_bin("hoverbench")
-        .expect("binary")
-        .args(["rig-gap", "--json"])
-        .arg(shared(
-            "rcbenchmark/StepsTest20230615_2023-06-15_174003.csv",
-        ))
-        .output()
-        .expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let v = json(&[
+        "rig-gap",
+        "--json",
+        &shared("rcbenchmark/StepsTest20230615_2023-06-15_174003.csv"),
+    ]);
     for key in ["verdict", "unexplained", "effects", "where", "baseline"] {
         assert!(v.get(key).is_some(), "missing {key}");
     }
@@ -51,13 +35,14 @@ fn rig_gap_json_on_a_one_cell_stand_names_the_sag() {
 #[test]
 fn rig_gap_writes_its_figure_and_residuals() {
     let dir = tempfile::tempdir().expect("temp dir");
-    Command::cargo_bin("hoverbench")
-        .expect("binary")
-        .args(["rig-gap", "--where", "propeller=DJI plastic 9450", "-o"])
-        .arg(dir.path())
-        .arg(shared("ctu-mrs/motor_tests.csv"))
-        .assert()
-        .success();
+    ok(&[
+        "rig-gap",
+        "--where",
+        "propeller=DJI plastic 9450",
+        "-o",
+        dir.path().to_str().unwrap(),
+        &shared("ctu-mrs/motor_tests.csv"),
+    ]);
     for f in [
         "rig-gap.json",
         "rig-gap.svg",
@@ -78,12 +63,7 @@ fn rig_gap_says_what_is_wrong_with_a_log_without_power() {
         "throttle,thrust_g\n0.2,50\n0.4,150\n0.6,300\n0.8,480\n1.0,700\n",
     )
     .expect("write");
-    let out = Command::cargo_bin("hoverbench")
-        .expect("binary")
-        .arg("rig-gap")
-        .arg(&f)
-        .output()
-        .expect("runs");
+    let out = bin().arg("rig-gap").arg(&f).output().expect("runs");
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("no power"), "{err}");
@@ -92,24 +72,14 @@ fn rig_gap_says_what_is_wrong_with_a_log_without_power() {
 
 #[test]
 fn rig_gap_eval_runs_blind_and_makes_nothing_worse() {
-    let out = Command::cargo_bin("hoverbench")
-        .expect("binary")
-        .args([
-            "rig-gap-eval",
-            "--scenarios",
-            "8",
-            "--seed",
-            "1000",
-            "--json",
-        ])
-        .output()
-        .expect("runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let v = json(&[
+        "rig-gap-eval",
+        "--scenarios",
+        "8",
+        "--seed",
+        "1000",
+        "--json",
+    ]);
     assert_eq!(v["summary"]["worse"], 0);
     assert_eq!(v["runs"].as_array().map(Vec::len), Some(8));
     let none = &v["summary"]["none_right"];

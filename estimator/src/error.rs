@@ -122,4 +122,26 @@ pub enum EstimateError {
         /// Version supported.
         supported: u8,
     },
+    /// A battery model value that makes no sense.
+    #[error("battery model: {reason} ({value})")]
+    Battery {
+        /// What is wrong.
+        reason: &'static str,
+        /// The offending value.
+        value: f64,
+    },
+    /// Something the computation needs was not given.
+    #[error("{what} is missing")]
+    Missing {
+        /// What is missing.
+        what: &'static str,
+    },
+    /// A mission plan longer than the fixed-size state holds.
+    #[error("a plan of {segments} segments is longer than the online estimator holds ({max})")]
+    PlanTooLong {
+        /// Segments given.
+        segments: usize,
+        /// Segments held.
+        max: usize,
+    },
 }

@@ -5,11 +5,16 @@
 //! basis for people, validity range, supply voltage), the thrust limit and the voltage it was
 //! taken at, the fit's statistics and the provenance (input file hashes, date, tool version).
 //! Unknown keys and a newer schema version are errors that name the line and column.
+//!
+//! Two optional sections feed the online estimator ([`crate::online`]): `[battery]`
+//! (versioned: `version = 1`; the pack model the gap diagnosis learns) and `[vehicle]` (the
+//! masses and powers of eqs. 1–2). A file without them is read as before.
 
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
+use crate::online::{BatteryModel, Chemistry, OCV_KNOTS, Vehicle};
 use crate::params::{Params, ThrustLimit};
 use crate::{EstimateError, PolyCurve};
 
@@ -17,6 +22,8 @@ use crate::{EstimateError, PolyCurve};
 pub const SCHEMA: &str = "hoverbench.params";
 /// Schema version this crate writes and the newest it reads.
 pub const SCHEMA_VERSION: u32 = 1;
+/// Version of the `[battery]` section this crate writes and reads.
+pub const BATTERY_SECTION_VERSION: u32 = 1;
 
 /// `params.toml` as a Rust value.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -37,6 +44,210 @@ pub struct ParamsFile {
     pub fit: FitSection,
     /// Where the numbers came from.
     pub provenance: Provenance,
+    /// The pack the robot flies, for the online estimator.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub battery: Option<BatterySection>,
+    /// The robot's masses and powers (eqs. 1–2), for the online estimator.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vehicle: Option<VehicleSection>,
+}
+
+/// `[battery]`: the pack model (per cell: open-circuit curve, series resistance, one RC pair).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BatterySection {
+    /// Section layout version, [`BATTERY_SECTION_VERSION`].
+    pub version: u32,
+    /// Cells in series.
+    pub cells: u8,
+    /// Rated capacity, Ah (give this or `rated_capacity_mah`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rated_capacity_ah: Option<f64>,
+    /// Rated capacity, mAh (give this or `rated_capacity_ah`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rated_capacity_mah: Option<f64>,
+    /// Chemistry: `lipo`, `lihv`, `li_ion_nmc`, `li_ion_nca`, `lifepo4`, `measured` or `other`.
+    pub chemistry: String,
+    /// Open-circuit voltage of one cell at state of charge 0, 0.05, …, 1 (21 values), V.
+    pub ocv_cell_v: Vec<f64>,
+    /// Series resistance of one cell, Ω.
+    pub series_resistance_cell_ohm: f64,
+    /// Resistance of the RC pair of one cell, Ω (0: none).
+    #[serde(default)]
+    pub rc_resistance_cell_ohm: f64,
+    /// Time constant of the RC pair, s.
+    #[serde(default)]
+    pub rc_time_constant_s: f64,
+    /// Cut-off voltage of one cell under load, V.
+    pub cutoff_cell_v: f64,
+    /// Where the model came from (e.g. the gap diagnosis and its flights), as text.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub source: String,
+}
+
+impl BatterySection {
+    /// The section of a battery model (capacity in Ah).
+    pub fn from_model(b: &BatteryModel, source: &str) -> Self {
+        Self {
+            version: BATTERY_SECTION_VERSION,
+            cells: b.cells,
+            rated_capacity_ah: Some(b.rated_capacity_ah),
+            rated_capacity_mah: None,
+            chemistry: b.chemistry.name().to_owned(),
+            ocv_cell_v: b.ocv_cell_v.to_vec(),
+            series_resistance_cell_ohm: b.series_resistance_cell_ohm,
+            rc_resistance_cell_ohm: b.rc_resistance_cell_ohm,
+            rc_time_constant_s: b.rc_time_constant_s,
+            cutoff_cell_v: b.cutoff_cell_v,
+            source: source.to_owned(),
+        }
+    }
+
+    /// The battery model, checked; the message names the key at fault.
+    pub fn to_model(&self) -> Result<BatteryModel, (&'static str, String)> {
+        if self.version != BATTERY_SECTION_VERSION {
+            return Err((
+                "version",
+                format!(
+                    "battery.version = {} is not a [battery] layout this hoverbench reads (version {BATTERY_SECTION_VERSION})",
+                    self.version
+                ),
+            ));
+        }
+        let capacity = match (self.rated_capacity_ah, self.rated_capacity_mah) {
+            (Some(ah), None) => ah,
+            (None, Some(mah)) => mah / 1000.0,
+            (Some(_), Some(_)) => {
+                return Err((
+                    "rated_capacity_mah",
+                    "give battery.rated_capacity_ah or battery.rated_capacity_mah, not both".into(),
+                ));
+            }
+            (None, None) => {
+                return Err((
+                    "cells",
+                    "battery.rated_capacity_ah (or rated_capacity_mah) is missing".into(),
+                ));
+            }
+        };
+        let chemistry = Chemistry::from_name(&self.chemistry).ok_or_else(|| {
+            (
+                "chemistry",
+                format!(
+                    "battery.chemistry = {:?} is not one of lipo, lihv, li_ion_nmc, li_ion_nca, lifepo4, measured, other",
+                    self.chemistry
+                ),
+            )
+        })?;
+        if self.ocv_cell_v.len() != OCV_KNOTS {
+            return Err((
+                "ocv_cell_v",
+                format!(
+                    "battery.ocv_cell_v has {} values; it needs {OCV_KNOTS} (state of charge 0, 0.05, …, 1)",
+                    self.ocv_cell_v.len()
+                ),
+            ));
+        }
+        let mut ocv = [0.0; OCV_KNOTS];
+        ocv.copy_from_slice(&self.ocv_cell_v);
+        let b = BatteryModel {
+            cells: self.cells,
+            rated_capacity_ah: capacity,
+            chemistry,
+            ocv_cell_v: ocv,
+            series_resistance_cell_ohm: self.series_resistance_cell_ohm,
+            rc_resistance_cell_ohm: self.rc_resistance_cell_ohm,
+            rc_time_constant_s: self.rc_time_constant_s,
+            cutoff_cell_v: self.cutoff_cell_v,
+        };
+        b.validate().map_err(|e| {
+            let key = match e {
+                EstimateError::NotPositive { what, .. }
+                | EstimateError::NonFinite { what, .. }
+                | EstimateError::Negative { what, .. } => {
+                    if what.contains("cells") {
+                        "cells"
+                    } else if what.contains("capacity") {
+                        if self.rated_capacity_ah.is_some() {
+                            "rated_capacity_ah"
+                        } else {
+                            "rated_capacity_mah"
+                        }
+                    } else if what.contains("series") {
+                        "series_resistance_cell_ohm"
+                    } else if what.contains("RC-pair") {
+                        "rc_resistance_cell_ohm"
+                    } else if what.contains("time constant") {
+                        "rc_time_constant_s"
+                    } else if what.contains("cut-off") {
+                        "cutoff_cell_v"
+                    } else {
+                        "ocv_cell_v"
+                    }
+                }
+                EstimateError::Battery { reason, .. } if reason.contains("cut-off") => {
+                    "cutoff_cell_v"
+                }
+                _ => "ocv_cell_v",
+            };
+            (key, format!("battery.{key}: {e}"))
+        })?;
+        Ok(b)
+    }
+}
+
+impl BatteryModel {
+    /// The battery model of a `[battery]` section, checked (the error names the key).
+    pub fn from_section(section: &BatterySection) -> Result<Self, ParamsFileError> {
+        section
+            .to_model()
+            .map_err(|(_, message)| ParamsFileError::Battery {
+                path: None,
+                message,
+            })
+    }
+}
+
+/// `[vehicle]`: the robot's masses and powers (eqs. 1–2).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VehicleSection {
+    /// `m_S`, kg.
+    pub structure_mass_kg: f64,
+    /// `m_B`, kg.
+    pub battery_mass_kg: f64,
+    /// `m_P`, kg.
+    #[serde(default)]
+    pub payload_mass_kg: f64,
+    /// `p_A`, W.
+    pub avionics_power_w: f64,
+    /// `p_P`, W.
+    #[serde(default)]
+    pub payload_power_w: f64,
+}
+
+impl VehicleSection {
+    /// The section of a vehicle.
+    pub fn from_vehicle(v: &Vehicle) -> Self {
+        Self {
+            structure_mass_kg: v.structure_mass_kg,
+            battery_mass_kg: v.battery_mass_kg,
+            payload_mass_kg: v.payload_mass_kg,
+            avionics_power_w: v.avionics_power_w,
+            payload_power_w: v.payload_power_w,
+        }
+    }
+
+    /// The vehicle (unchecked).
+    pub fn to_vehicle(&self) -> Vehicle {
+        Vehicle {
+            structure_mass_kg: self.structure_mass_kg,
+            battery_mass_kg: self.battery_mass_kg,
+            payload_mass_kg: self.payload_mass_kg,
+            avionics_power_w: self.avionics_power_w,
+            payload_power_w: self.payload_power_w,
+        }
+    }
 }
 
 /// `[curve]`: the fitted polynomial.
@@ -93,10 +304,20 @@ pub struct FitSection {
     pub rmse: f64,
     /// Coefficient of determination.
     pub r_squared: f64,
-    /// Largest absolute residual, in y's unit.
-    pub max_abs_residual: f64,
+    /// Largest absolute residual, in y's unit (absent when the fit has no residuals).
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "nan_as_none"
+    )]
+    pub max_abs_residual: Option<f64>,
     /// x where it occurs.
-    pub max_residual_at: f64,
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "nan_as_none"
+    )]
+    pub max_residual_at: Option<f64>,
     /// Condition number of the scaled design matrix.
     pub condition_number: f64,
     /// Standard errors of `coefficients_scaled`.
@@ -104,6 +325,11 @@ pub struct FitSection {
     /// Warnings the fit raised, as text.
     #[serde(default)]
     pub warnings: Vec<String>,
+}
+
+/// Files written before the `Option` fields spelled a missing value `nan`: read it as absent.
+fn nan_as_none<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.filter(|v| !v.is_nan()))
 }
 
 /// `[provenance]`.
@@ -189,6 +415,14 @@ pub enum ParamsFileError {
         x: String,
         /// Its y column.
         y: String,
+    },
+    /// The `[battery]` section is not a valid battery model.
+    #[error("{}{message}", path_prefix(path.as_deref()))]
+    Battery {
+        /// The file.
+        path: Option<PathBuf>,
+        /// What is wrong.
+        message: String,
     },
     /// The scaled coefficients disagree with the stated degree.
     #[error("{}curve.degree is {degree} but curve.coefficients_scaled has {len} entries", path_prefix(path.as_deref()))]
@@ -300,6 +534,23 @@ impl ParamsFile {
                 });
             }
         }
+        if let Some(v) = table
+            .get("battery")
+            .and_then(|b| b.get("version"))
+            .and_then(toml::Value::as_integer)
+        {
+            if v != i64::from(BATTERY_SECTION_VERSION) {
+                let (line, column) = key_position(text, "battery", "version");
+                return Err(ParamsFileError::Syntax {
+                    path: path.map(Path::to_owned),
+                    line,
+                    column,
+                    message: format!(
+                        "battery.version = {v} is not a [battery] layout this hoverbench reads (version {BATTERY_SECTION_VERSION}): upgrade hoverbench or rewrite the section"
+                    ),
+                });
+            }
+        }
         let file: Self = toml::from_str(text).map_err(syntax)?;
         if file.curve.coefficients_scaled.len() != file.curve.degree + 1 {
             return Err(ParamsFileError::DegreeMismatch {
@@ -373,6 +624,35 @@ impl ParamsFile {
                 ),
             ));
         }
+        if let Some(b) = &self.battery {
+            b.to_model()
+                .map_err(|(key, message)| at("battery", key, message))?;
+        }
+        if let Some(v) = &self.vehicle {
+            v.to_vehicle().validate().map_err(|e| {
+                let key = match e {
+                    EstimateError::NotPositive { what, .. }
+                    | EstimateError::NonFinite { what, .. }
+                    | EstimateError::Negative { what, .. } => {
+                        if what.contains("structure") {
+                            "structure_mass_kg"
+                        } else if what.contains("battery") {
+                            "battery_mass_kg"
+                        } else if what.contains("payload mass") {
+                            "payload_mass_kg"
+                        } else if what.contains("avionics") {
+                            "avionics_power_w"
+                        } else if what.contains("payload power") {
+                            "payload_power_w"
+                        } else {
+                            "structure_mass_kg"
+                        }
+                    }
+                    _ => "structure_mass_kg",
+                };
+                at("vehicle", key, format!("vehicle.{key}: {e}"))
+            })?;
+        }
         Ok(())
     }
 
@@ -423,10 +703,30 @@ impl ParamsFile {
                 })
             }
         };
+        let battery = match &self.battery {
+            None => None,
+            Some(b) => Some(
+                b.to_model()
+                    .map_err(|(_, message)| ParamsFileError::Battery {
+                        path: None,
+                        message,
+                    })?,
+            ),
+        };
+        let vehicle = match &self.vehicle {
+            None => None,
+            Some(v) => {
+                let v = v.to_vehicle();
+                v.validate().map_err(invalid)?;
+                Some(v)
+            }
+        };
         Ok(Params {
             rotor_count: self.rotor_count,
             curve,
             thrust_limit,
+            battery,
+            vehicle,
         })
     }
 }
@@ -463,8 +763,8 @@ mod tests {
                 n_points: 27,
                 rmse: 0.01,
                 r_squared: 0.9999,
-                max_abs_residual: 0.02,
-                max_residual_at: 250.0,
+                max_abs_residual: Some(0.02),
+                max_residual_at: Some(250.0),
                 condition_number: 12.0,
                 coefficient_std_errors_scaled: vec![0.1, 0.1, 0.1],
                 warnings: vec![],
@@ -477,7 +777,182 @@ mod tests {
                 created: "2026-11-22T00:00:00Z".into(),
                 tool: "hoverbench test".into(),
             },
+            battery: None,
+            vehicle: None,
         }
+    }
+
+    fn with_battery() -> ParamsFile {
+        let mut f = sample();
+        let mut b = BatteryModel::lipo(3, 2.2).unwrap();
+        b.rc_resistance_cell_ohm = 0.002;
+        b.rc_time_constant_s = 30.0;
+        f.battery = Some(BatterySection::from_model(&b, "test pack"));
+        f.vehicle = Some(VehicleSection {
+            structure_mass_kg: 0.431,
+            battery_mass_kg: 0.144,
+            payload_mass_kg: 0.0,
+            avionics_power_w: 2.44,
+            payload_power_w: 0.0,
+        });
+        f
+    }
+
+    #[test]
+    fn battery_and_vehicle_sections_round_trip() {
+        let f = with_battery();
+        let text = f.to_toml_string();
+        assert!(
+            text.contains("[battery]") && text.contains("\nversion = 1"),
+            "{text}"
+        );
+        let back = ParamsFile::from_toml_str(&text).unwrap();
+        assert_eq!(back, f);
+        let p = back.to_params().unwrap();
+        let b = p.battery.unwrap();
+        assert_eq!(
+            BatteryModel::from_section(back.battery.as_ref().unwrap()).unwrap(),
+            b
+        );
+        let mut bad = back.battery.clone().unwrap();
+        bad.version = 2;
+        assert!(
+            BatteryModel::from_section(&bad)
+                .unwrap_err()
+                .to_string()
+                .contains("version")
+        );
+        assert_eq!(b.cells, 3);
+        assert_eq!(b.rc_time_constant_s, 30.0);
+        assert!((p.vehicle.unwrap().total_mass_kg() - 0.575).abs() < 1e-12);
+        // Capacity in mAh reads the same.
+        let mah = text.replace("rated_capacity_ah = 2.2", "rated_capacity_mah = 2200");
+        let p2 = ParamsFile::from_toml_str(&mah)
+            .unwrap()
+            .to_params()
+            .unwrap();
+        assert!((p2.battery.unwrap().rated_capacity_ah - 2.2).abs() < 1e-12);
+    }
+
+    #[test]
+    fn battery_section_errors_name_the_line() {
+        let text = with_battery().to_toml_string();
+        let line_of =
+            |t: &str, prefix: &str| t.lines().position(|l| l.starts_with(prefix)).unwrap() + 1;
+        // An unknown version.
+        let t = text.replace("\nversion = 1", "\nversion = 7");
+        let e = ParamsFile::from_toml_str(&t).unwrap_err();
+        match &e {
+            ParamsFileError::Syntax { line, message, .. } => {
+                assert_eq!(*line, line_of(&t, "version = 7"));
+                assert!(message.contains("battery.version = 7"), "{message}");
+            }
+            e => panic!("unexpected {e}"),
+        }
+        // A falling curve, a cut-off above full, a negative resistance, a missing capacity.
+        let knots = |b: &BatterySection| {
+            format!("{:?}", b.ocv_cell_v)
+                .replace('[', "")
+                .replace(']', "")
+        };
+        let b = with_battery().battery.unwrap();
+        let mut falling = b.clone();
+        falling.ocv_cell_v[10] = 3.0;
+        for (bad, key, needle) in [
+            (
+                {
+                    let mut f = with_battery();
+                    f.battery = Some(falling);
+                    f.to_toml_string()
+                },
+                "ocv_cell_v",
+                "rise strictly",
+            ),
+            (
+                text.replace("cutoff_cell_v = 3.3", "cutoff_cell_v = 4.5"),
+                "cutoff_cell_v",
+                "cut-off",
+            ),
+            (
+                text.replace(
+                    "series_resistance_cell_ohm = 0.005",
+                    "series_resistance_cell_ohm = -0.01",
+                ),
+                "series_resistance_cell_ohm",
+                "negative",
+            ),
+            (
+                text.replace("rated_capacity_ah = 2.2\n", ""),
+                "cells",
+                "rated_capacity_ah",
+            ),
+            (
+                text.replace("chemistry = \"lipo\"", "chemistry = \"plutonium\""),
+                "chemistry",
+                "plutonium",
+            ),
+        ] {
+            let _ = knots(&b);
+            match ParamsFile::from_toml_str(&bad).unwrap_err() {
+                ParamsFileError::Syntax { line, message, .. } => {
+                    assert_eq!(line, line_of(&bad, key), "{message}");
+                    assert!(message.contains(needle), "{message}");
+                }
+                e => panic!("unexpected {e}"),
+            }
+        }
+        // 20 knots.
+        let mut f = with_battery();
+        f.battery.as_mut().unwrap().ocv_cell_v.pop();
+        let e = ParamsFile::from_toml_str(&f.to_toml_string())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("needs 21"), "{e}");
+        // A negative vehicle mass.
+        let t = text.replace("structure_mass_kg = 0.431", "structure_mass_kg = -1.0");
+        let e = ParamsFile::from_toml_str(&t).unwrap_err().to_string();
+        assert!(
+            e.contains("vehicle.structure_mass_kg") && e.contains("line"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn the_readme_example_sections_parse() {
+        let readme = include_str!("../../README.md");
+        let start = readme
+            .find("[battery]\nversion = 1")
+            .expect("the README's example");
+        let block = &readme[start..start + readme[start..].find("```").unwrap()];
+        let text = format!("{}\n{block}", sample().to_toml_string());
+        let p = ParamsFile::from_toml_str(&text)
+            .unwrap()
+            .to_params()
+            .unwrap();
+        assert!((p.battery.unwrap().rated_capacity_ah - 2.2).abs() < 1e-12);
+        assert_eq!(p.vehicle.unwrap().payload_mass_kg, 0.0);
+    }
+
+    #[test]
+    fn missing_fit_statistics_are_absent_not_nan() {
+        let mut f = sample();
+        f.fit.max_abs_residual = None;
+        f.fit.max_residual_at = None;
+        let text = f.to_toml_string();
+        assert!(
+            !text.contains("max_abs_residual") && !text.contains("= nan"),
+            "{text}"
+        );
+        assert_eq!(ParamsFile::from_toml_str(&text).unwrap(), f);
+        // Files written before spelled them `nan`.
+        let old = sample()
+            .to_toml_string()
+            .replace("max_abs_residual = 0.02", "max_abs_residual = nan")
+            .replace("max_residual_at = 250.0", "max_residual_at = nan");
+        assert!(old.contains("= nan"));
+        let back = ParamsFile::from_toml_str(&old).unwrap();
+        assert_eq!(back.fit.max_abs_residual, None);
+        assert_eq!(back.fit.max_residual_at, None);
     }
 
     #[test]

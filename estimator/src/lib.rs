@@ -51,6 +51,7 @@ mod curve;
 mod error;
 mod mission;
 mod model;
+pub mod online;
 mod optimise;
 pub mod params;
 

@@ -41,7 +41,7 @@ impl Segment {
         )
     }
 
-    fn validate(&self) -> Result<(), EstimateError> {
+    pub(crate) fn validate(&self) -> Result<(), EstimateError> {
         match *self {
             Self::Hover { duration_min } | Self::Attached { duration_min } => {
                 require_non_negative("segment duration (min)", duration_min)?;

@@ -7,7 +7,7 @@
 //! ```
 //! # let bytes = {
 //! #     let curve = estimator::PolyCurve::new(&[10.0, 12.0, 3.0], 130.0, 130.0, (0.0, 260.0), Some(12.5)).unwrap();
-//! #     let p = estimator::Params { rotor_count: 4, curve, thrust_limit: None };
+//! #     let p = estimator::Params { rotor_count: 4, curve, thrust_limit: None, battery: None, vehicle: None };
 //! #     let mut buf = [0u8; estimator::params::MAX_BLOB_LEN];
 //! #     let n = p.encode(&mut buf).unwrap();
 //! #     buf[..n].to_vec()
@@ -16,17 +16,34 @@
 //! let params = estimator::Params::decode(&bytes).expect("a valid parameter blob");
 //! assert_eq!(params.rotor_count, 4);
 //! ```
+//!
+//! Layout (little-endian): magic `HBPR`, version, rotor count, curve degree, flags (bit 0 thrust
+//! limit, bit 1 supply voltage, bit 2 battery model, bit 3 vehicle); centre, scale, range and
+//! supply voltage of the curve (5 × f64); the scaled coefficients; the thrust limit (3 × f64)
+//! when flagged; from version 2, the battery model ([`BATTERY_BLOCK_LEN`] bytes: cells,
+//! chemistry code, 6 zero bytes, rated capacity, 21 open-circuit knots, series resistance, RC
+//! resistance, RC time constant, cut-off voltage, as f64) and the vehicle (5 × f64: structure,
+//! battery and payload mass, avionics and payload power) when flagged; CRC-32 of everything
+//! before it. A blob without battery or vehicle is written as version 1, byte for byte what
+//! earlier versions wrote, and both versions are read.
 
 use crate::EstimateError;
 use crate::curve::{MAX_DEGREE, PolyCurve};
+use crate::online::{BatteryModel, Chemistry, OCV_KNOTS, Vehicle};
 
 /// First four bytes of every blob.
 pub const MAGIC: [u8; 4] = *b"HBPR";
-/// Binary layout version this crate writes and reads.
-pub const BLOB_VERSION: u8 = 1;
+/// Newest binary layout version this crate writes and reads (version 1, without battery and
+/// vehicle, is still read, and written when there is neither).
+pub const BLOB_VERSION: u8 = 2;
+/// Bytes of the battery block (version 2).
+pub const BATTERY_BLOCK_LEN: usize = 8 + (1 + OCV_KNOTS + 4) * 8;
+/// Bytes of the vehicle block (version 2).
+pub const VEHICLE_BLOCK_LEN: usize = 5 * 8;
 /// Longest possible blob, bytes: header (magic, version, rotors, degree, flags), scaling and
-/// range, coefficients, thrust limit, CRC.
-pub const MAX_BLOB_LEN: usize = 8 + 5 * 8 + (MAX_DEGREE + 1) * 8 + 3 * 8 + 4;
+/// range, coefficients, thrust limit, battery, vehicle, CRC.
+pub const MAX_BLOB_LEN: usize =
+    8 + 5 * 8 + (MAX_DEGREE + 1) * 8 + 3 * 8 + BATTERY_BLOCK_LEN + VEHICLE_BLOCK_LEN + 4;
 
 const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 
@@ -50,6 +67,10 @@ pub struct Params {
     pub curve: PolyCurve,
     /// Thrust limit at minimum battery voltage, when measured.
     pub thrust_limit: Option<ThrustLimit>,
+    /// The pack the robot flies (the `[battery]` section), for the online estimator.
+    pub battery: Option<BatteryModel>,
+    /// The robot's masses and powers (the `[vehicle]` section), for the online estimator.
+    pub vehicle: Option<Vehicle>,
 }
 
 impl Params {
@@ -62,8 +83,32 @@ impl Params {
     /// Writes the binary form into `buf`, returning the number of bytes written.
     pub fn encode(&self, buf: &mut [u8]) -> Result<usize, EstimateError> {
         let coeffs = self.curve.coefficients_scaled();
-        let len =
-            8 + 5 * 8 + coeffs.len() * 8 + if self.thrust_limit.is_some() { 24 } else { 0 } + 4;
+        let len = 8
+            + 5 * 8
+            + coeffs.len() * 8
+            + if self.thrust_limit.is_some() { 24 } else { 0 }
+            + if self.battery.is_some() {
+                BATTERY_BLOCK_LEN
+            } else {
+                0
+            }
+            + if self.vehicle.is_some() {
+                VEHICLE_BLOCK_LEN
+            } else {
+                0
+            }
+            + 4;
+        if let Some(b) = &self.battery {
+            b.validate()?;
+        }
+        if let Some(v) = &self.vehicle {
+            v.validate()?;
+        }
+        let version = if self.battery.is_some() || self.vehicle.is_some() {
+            BLOB_VERSION
+        } else {
+            1
+        };
         if buf.len() < len {
             return Err(EstimateError::OutputTooShort {
                 needed: len,
@@ -73,12 +118,14 @@ impl Params {
         let mut w = Writer { buf, pos: 0 };
         w.bytes(&MAGIC);
         w.bytes(&[
-            BLOB_VERSION,
+            version,
             self.rotor_count,
             // MAX_DEGREE < 256, so the degree fits a byte.
             self.curve.degree() as u8,
             u8::from(self.thrust_limit.is_some())
-                | (u8::from(self.curve.supply_voltage_v().is_some()) << 1),
+                | (u8::from(self.curve.supply_voltage_v().is_some()) << 1)
+                | (u8::from(self.battery.is_some()) << 2)
+                | (u8::from(self.vehicle.is_some()) << 3),
         ]);
         let (lo, hi) = crate::PowerCurve::valid_range_g(&self.curve);
         for v in [
@@ -98,6 +145,28 @@ impl Params {
             w.f64(l.uncertainty_g);
             w.f64(l.supply_voltage_v);
         }
+        if let Some(b) = &self.battery {
+            w.bytes(&[b.cells, b.chemistry as u8, 0, 0, 0, 0, 0, 0]);
+            w.f64(b.rated_capacity_ah);
+            for &v in &b.ocv_cell_v {
+                w.f64(v);
+            }
+            w.f64(b.series_resistance_cell_ohm);
+            w.f64(b.rc_resistance_cell_ohm);
+            w.f64(b.rc_time_constant_s);
+            w.f64(b.cutoff_cell_v);
+        }
+        if let Some(v) = &self.vehicle {
+            for x in [
+                v.structure_mass_kg,
+                v.battery_mass_kg,
+                v.payload_mass_kg,
+                v.avionics_power_w,
+                v.payload_power_w,
+            ] {
+                w.f64(x);
+            }
+        }
         let crc = CRC32.checksum(&w.buf[..w.pos]);
         w.bytes(&crc.to_le_bytes());
         Ok(w.pos)
@@ -110,9 +179,10 @@ impl Params {
                 reason: "not a hoverbench parameter blob (bad magic or too short)",
             });
         }
-        if bytes[4] != BLOB_VERSION {
+        let version = bytes[4];
+        if version == 0 || version > BLOB_VERSION {
             return Err(EstimateError::BlobVersion {
-                found: bytes[4],
+                found: version,
                 supported: BLOB_VERSION,
             });
         }
@@ -125,20 +195,28 @@ impl Params {
         }
         let rotor_count = body[5];
         let degree = usize::from(body[6]);
-        if body[7] & !0b11 != 0 {
+        let known_flags = if version == 1 { 0b11 } else { 0b1111 };
+        if body[7] & !known_flags != 0 {
             return Err(EstimateError::Blob {
                 reason: "unknown flags byte",
             });
         }
         let has_limit = body[7] & 1 != 0;
         let has_voltage = body[7] & 2 != 0;
+        let has_battery = body[7] & 4 != 0;
+        let has_vehicle = body[7] & 8 != 0;
         if degree > MAX_DEGREE {
             return Err(EstimateError::CurveDegree {
                 coefficients: degree + 1,
                 max_degree: MAX_DEGREE,
             });
         }
-        let want = 8 + 5 * 8 + (degree + 1) * 8 + if has_limit { 24 } else { 0 };
+        let want = 8
+            + 5 * 8
+            + (degree + 1) * 8
+            + if has_limit { 24 } else { 0 }
+            + if has_battery { BATTERY_BLOCK_LEN } else { 0 }
+            + if has_vehicle { VEHICLE_BLOCK_LEN } else { 0 };
         if body.len() != want {
             return Err(EstimateError::Blob {
                 reason: "length does not match the degree and flags",
@@ -180,10 +258,55 @@ impl Params {
         } else {
             None
         };
+        let battery = if has_battery {
+            let head = r.bytes8();
+            if head[2..].iter().any(|&b| b != 0) {
+                return Err(EstimateError::Blob {
+                    reason: "battery block: reserved bytes are not zero",
+                });
+            }
+            let chemistry = Chemistry::from_code(head[1]).ok_or(EstimateError::Blob {
+                reason: "battery block: unknown chemistry code",
+            })?;
+            let rated_capacity_ah = r.f64();
+            let mut ocv_cell_v = [0.0; OCV_KNOTS];
+            for v in &mut ocv_cell_v {
+                *v = r.f64();
+            }
+            let b = BatteryModel {
+                cells: head[0],
+                rated_capacity_ah,
+                chemistry,
+                ocv_cell_v,
+                series_resistance_cell_ohm: r.f64(),
+                rc_resistance_cell_ohm: r.f64(),
+                rc_time_constant_s: r.f64(),
+                cutoff_cell_v: r.f64(),
+            };
+            b.validate()?;
+            Some(b)
+        } else {
+            None
+        };
+        let vehicle = if has_vehicle {
+            let v = Vehicle {
+                structure_mass_kg: r.f64(),
+                battery_mass_kg: r.f64(),
+                payload_mass_kg: r.f64(),
+                avionics_power_w: r.f64(),
+                payload_power_w: r.f64(),
+            };
+            v.validate()?;
+            Some(v)
+        } else {
+            None
+        };
         Ok(Self {
             rotor_count,
             curve,
             thrust_limit,
+            battery,
+            vehicle,
         })
     }
 }
@@ -216,6 +339,13 @@ impl Reader<'_> {
         self.pos += 8;
         f64::from_le_bytes(b)
     }
+    /// Callers check the length first.
+    fn bytes8(&mut self) -> [u8; 8] {
+        let mut b = [0u8; 8];
+        b.copy_from_slice(&self.buf[self.pos..self.pos + 8]);
+        self.pos += 8;
+        b
+    }
 }
 
 #[cfg(test)]
@@ -239,7 +369,101 @@ mod tests {
                 uncertainty_g: 0.4,
                 supply_voltage_v: 9.0,
             }),
+            battery: None,
+            vehicle: None,
         }
+    }
+
+    fn with_battery(limit: bool) -> Params {
+        let mut p = sample(limit);
+        let mut b = BatteryModel::lipo(3, 2.2).unwrap();
+        b.chemistry = Chemistry::Measured;
+        b.rc_resistance_cell_ohm = 0.003;
+        b.rc_time_constant_s = 25.0;
+        p.battery = Some(b);
+        p.vehicle = Some(Vehicle {
+            structure_mass_kg: 0.431,
+            battery_mass_kg: 0.144,
+            payload_mass_kg: 0.02,
+            avionics_power_w: 2.44,
+            payload_power_w: 0.5,
+        });
+        p
+    }
+
+    #[test]
+    fn battery_and_vehicle_round_trip_as_version_2() {
+        for limit in [false, true] {
+            let p = with_battery(limit);
+            let mut buf = [0u8; MAX_BLOB_LEN];
+            let n = p.encode(&mut buf).unwrap();
+            assert_eq!(buf[4], 2);
+            assert_eq!(Params::decode(&buf[..n]).unwrap(), p);
+            // Battery alone, vehicle alone.
+            let mut q = p;
+            q.vehicle = None;
+            let n = q.encode(&mut buf).unwrap();
+            assert_eq!(Params::decode(&buf[..n]).unwrap(), q);
+            let mut q = p;
+            q.battery = None;
+            let n = q.encode(&mut buf).unwrap();
+            assert_eq!(Params::decode(&buf[..n]).unwrap(), q);
+        }
+        // The longest blob fits MAX_BLOB_LEN exactly.
+        let mut p = with_battery(true);
+        p.curve = PolyCurve::new(
+            &[1.0; MAX_DEGREE + 1],
+            135.0,
+            125.0,
+            (10.0, 260.0),
+            Some(12.5),
+        )
+        .unwrap();
+        let mut buf = [0u8; MAX_BLOB_LEN];
+        assert_eq!(p.encode(&mut buf).unwrap(), MAX_BLOB_LEN);
+    }
+
+    #[test]
+    fn version_1_blobs_are_written_and_read_as_before() {
+        // Bytes of a version-1 blob as hoverbench 0.1 wrote it (degree 2, no limit, no voltage).
+        let p = Params {
+            rotor_count: 4,
+            curve: PolyCurve::new(&[1.0, 2.0, 3.0], 0.0, 1.0, (0.0, 1.0), None).unwrap(),
+            thrust_limit: None,
+            battery: None,
+            vehicle: None,
+        };
+        let mut old = b"HBPR\x01\x04\x02\x00".to_vec();
+        for v in [0.0f64, 1.0, 0.0, 1.0, 0.0, 1.0, 2.0, 3.0] {
+            old.extend_from_slice(&v.to_le_bytes());
+        }
+        let crc = CRC32.checksum(&old);
+        old.extend_from_slice(&crc.to_le_bytes());
+        assert_eq!(Params::decode(&old).unwrap(), p);
+        let mut buf = [0u8; MAX_BLOB_LEN];
+        let n = p.encode(&mut buf).unwrap();
+        assert_eq!(&buf[..n], &old[..]);
+        // A version-1 blob may not claim a battery.
+        let mut bad = old.clone();
+        bad[7] = 4;
+        let n = bad.len();
+        let crc = CRC32.checksum(&bad[..n - 4]);
+        bad[n - 4..].copy_from_slice(&crc.to_le_bytes());
+        assert!(Params::decode(&bad).is_err());
+    }
+
+    #[test]
+    fn newer_versions_are_refused_by_number() {
+        let mut buf = [0u8; MAX_BLOB_LEN];
+        let n = with_battery(true).encode(&mut buf).unwrap();
+        buf[4] = 3;
+        assert!(matches!(
+            Params::decode(&buf[..n]),
+            Err(EstimateError::BlobVersion {
+                found: 3,
+                supported: 2
+            })
+        ));
     }
 
     #[test]
@@ -255,7 +479,7 @@ mod tests {
 
     #[test]
     fn every_single_bit_flip_is_detected() {
-        let p = sample(true);
+        let p = with_battery(true);
         let mut buf = [0u8; MAX_BLOB_LEN];
         let n = p.encode(&mut buf).unwrap();
         for byte in 0..n {
@@ -283,9 +507,9 @@ mod tests {
         }
 
         #[test]
-        fn decode_never_panics_on_valid_header(mut tail in proptest::collection::vec(any::<u8>(), 0..200), deg in 0u8..20, flags in 0u8..3) {
+        fn decode_never_panics_on_valid_header(mut tail in proptest::collection::vec(any::<u8>(), 0..200), deg in 0u8..20, flags in 0u8..16, version in 1u8..3) {
             let mut bytes = MAGIC.to_vec();
-            bytes.extend_from_slice(&[BLOB_VERSION, 4, deg, flags]);
+            bytes.extend_from_slice(&[version, 4, deg, flags]);
             bytes.append(&mut tail);
             let _ = Params::decode(&bytes);
         }

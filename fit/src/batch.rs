@@ -129,9 +129,7 @@ fn prepare(x: &[f64], y: &[f64], w: Option<&[f64]>, degree: usize) -> Result<Pre
     if distinct <= degree {
         return Err(FitError::TooFewDistinctX { degree, distinct });
     }
-    let center = 0.5 * min + 0.5 * max;
-    let half = 0.5 * width;
-    let scale = if half > 0.0 { half } else { width };
+    let (center, scale) = crate::scale::rounded_center_scale(min, max);
 
     let y_pow = Pow2::for_max_abs(y.iter().fold(0.0, |m, v| m.max(v.abs())));
     let w_pow = w.map_or(Pow2::IDENTITY, |w| {

@@ -67,12 +67,14 @@ pub fn params_file(
             n_points: stats.n_points,
             rmse: stats.rmse,
             r_squared: stats.r_squared,
-            max_abs_residual: max.map_or(f64::NAN, |m| m.abs_value),
-            max_residual_at: max.map_or(f64::NAN, |m| m.x),
+            max_abs_residual: max.map(|m| m.abs_value),
+            max_residual_at: max.map(|m| m.x),
             condition_number: stats.condition_number,
             coefficient_std_errors_scaled: stats.std_errors_scaled.clone().unwrap_or_default(),
             warnings: fit.warnings().iter().map(ToString::to_string).collect(),
         },
         provenance,
+        battery: None,
+        vehicle: None,
     }
 }

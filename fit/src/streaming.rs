@@ -121,13 +121,13 @@ impl StreamingPolyFit {
         if !(lo.is_finite() && hi.is_finite() && lo < hi && width.is_finite()) {
             return Err(FitError::InvalidDomain { lo, hi });
         }
-        let half = 0.5 * width;
+        let (center, scale) = crate::scale::rounded_center_scale(lo, hi);
         Ok(StreamingPolyFit {
             degree,
             lo,
             hi,
-            center: 0.5 * lo + 0.5 * hi,
-            scale: if half > 0.0 { half } else { width },
+            center,
+            scale,
             acc: QrAccumulator::new(degree + 2, block_rows),
             n: 0,
             min_x: f64::INFINITY,

@@ -51,6 +51,15 @@ pub const MAX_PLAUSIBLE_VOLTAGE_V: f64 = 1e5;
 /// Largest current a stand log may report, A.
 pub const MAX_PLAUSIBLE_CURRENT_A: f64 = 1e6;
 
+/// A value as people read it: `1e308`, not 309 digits.
+fn short(v: f64) -> String {
+    if v != 0.0 && !(1e-3..1e6).contains(&v.abs()) {
+        format!("{v:e}")
+    } else {
+        format!("{v}")
+    }
+}
+
 /// Why sweeps could not be turned into parameters.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -60,7 +69,8 @@ pub enum SweepFitError {
     Stand(#[from] import::ImportError),
     /// A value outside anything a thrust stand measures.
     #[error(
-        "{source_name}, line {line}, column {column:?}: {value} is not {expected}; the log looks corrupt"
+        "{source_name}, line {line}, column {column:?}: {} is not {expected}; the log looks corrupt",
+        short(*value)
     )]
     Implausible {
         /// The file.
@@ -703,6 +713,10 @@ mod tests {
             e => panic!("{e}"),
         }
         assert!(err.to_string().contains("line 8"), "{err}");
+        // the value as people read it, not 301 digits
+        assert!(err.to_string().contains(": 1e300 is not"), "{err}");
+        assert_eq!(short(0.25), "0.25");
+        assert_eq!(short(-2.5e-7), "-2.5e-7");
     }
 
     #[test]

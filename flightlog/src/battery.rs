@@ -224,7 +224,7 @@ fn check(track: &Track) -> Result<Chosen, SkipReason> {
                  finite): interpolated from their neighbours",
                 track.name
             ));
-            Some(crate::resample::linear(&t_known, &c_known, &time_s))
+            crate::resample::linear(&t_known, &c_known, &time_s)
         } else {
             Some(c_known)
         }

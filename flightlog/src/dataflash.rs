@@ -21,7 +21,7 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use crate::battery::{self, Track};
-use crate::{Decoded, FlightLogError, LogInfo, Record, Row, Samples, Vehicle, VehicleKind};
+use crate::{Decoded, FlightLogError, LogInfo, Row, Samples, Vehicle, VehicleKind};
 
 /// The two bytes that start every message.
 pub const MAGIC: [u8; 2] = [0xA3, 0x95];
@@ -125,11 +125,8 @@ fn text(bytes: &[u8]) -> String {
 impl<'a> DataFlash<'a> {
     /// Parses a DataFlash log held in memory; `path` names it in errors.
     pub fn parse(bytes: &'a [u8], path: &Path) -> Result<Self, FlightLogError> {
-        let fail = |offset: usize, field: &str, message: String| FlightLogError::Binary {
-            path: path.to_owned(),
-            offset: offset as u64,
-            field: field.to_owned(),
-            message,
+        let fail = |offset: usize, field: &str, message: String| {
+            FlightLogError::binary(path, offset as u64, field, message)
         };
         if !bytes.starts_with(&MAGIC) {
             return Err(fail(
@@ -282,27 +279,21 @@ impl<'a> DataFlash<'a> {
         n
     }
 
-    /// Values of numeric fields of one message type, one row per message: `(byte offset,
-    /// values)`, keeping the lowest instance when the type has an `Instance`/`Inst`/`I` field.
-    /// `Ok(None)` when there are no such messages; a missing field is `NaN` when `required` is
-    /// false, else an error. (See [`DataFlash::rows`] for any instance, with `None` for a
-    /// missing field.)
+    /// Values of numeric fields of one message type, one row per message, keeping the lowest
+    /// instance when the type has an `Instance`/`Inst`/`I` field. `Ok(None)` when there are
+    /// no such messages; a field the format lacks is `None` when `required` is false, else an
+    /// error. (See [`DataFlash::rows`] for any instance.)
     pub fn columns(
         &self,
         name: &str,
         fields: &[(&str, bool)],
         path: &Path,
-    ) -> Result<Option<Vec<Record>>, FlightLogError> {
+    ) -> Result<Option<Vec<Row>>, FlightLogError> {
         if !self.has(name) {
             return Ok(None);
         }
         let instance = self.instances(name).first().copied();
-        Ok(Some(
-            self.rows(name, instance, fields, path)?
-                .into_iter()
-                .map(Record::from)
-                .collect(),
-        ))
+        self.rows(name, instance, fields, path).map(Some)
     }
 
     /// Whether the log has messages of a type.
@@ -356,11 +347,8 @@ impl<'a> DataFlash<'a> {
         let Some(messages) = self.messages.get(&format.msg_type) else {
             return Ok(Vec::new());
         };
-        let fail = |offset: u64, field: &str, message: String| FlightLogError::Binary {
-            path: path.to_owned(),
-            offset,
-            field: format!("{name}.{field}"),
-            message,
+        let fail = |offset: u64, field: &str, message: String| {
+            FlightLogError::binary(path, offset, format!("{name}.{field}"), message)
         };
         if let Some(problem) = &format.problem {
             return Err(fail(format.defined_at, "FMT", problem.clone()));
@@ -518,12 +506,12 @@ fn battery_tracks(log: &DataFlash<'_>, path: &Path) -> Result<Vec<Track>, Flight
             continue;
         }
         if let Some(problem) = &format.problem {
-            return Err(FlightLogError::Binary {
-                path: path.to_owned(),
-                offset: format.defined_at,
-                field: format!("{name}.FMT"),
-                message: problem.clone(),
-            });
+            return Err(FlightLogError::binary(
+                path,
+                format.defined_at,
+                format!("{name}.FMT"),
+                problem.clone(),
+            ));
         }
         let Some((time_label, time_scale)) = log.time_field(name) else {
             return Err(FlightLogError::MissingData {
@@ -552,6 +540,8 @@ fn battery_tracks(log: &DataFlash<'_>, path: &Path) -> Result<Vec<Track>, Flight
                 ],
                 path,
             )?;
+            // Time and voltage are required fields: every row has them.
+            let rows = Row::having(&rows, &[0, 1]);
             if rows.is_empty() {
                 continue;
             }
@@ -563,8 +553,8 @@ fn battery_tracks(log: &DataFlash<'_>, path: &Path) -> Result<Vec<Track>, Flight
                     None => name.to_owned(),
                 },
                 offsets: rows.iter().map(|r| r.offset).collect(),
-                time_s: col(0).map(|t| t.unwrap_or(f64::NAN) * time_scale).collect(),
-                voltage_v: col(1).map(|v| v.unwrap_or(f64::NAN) * v_scale).collect(),
+                time_s: col(0).flatten().map(|t| t * time_scale).collect(),
+                voltage_v: col(1).flatten().map(|v| v * v_scale).collect(),
                 current_a: col(2).map(|c| c.map(|c| c * i_scale)).collect(),
                 connected: None,
                 remaining: has_remaining
@@ -794,7 +784,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
             .filter_map(|r| Some((r.values[0]? * scale - t0, r.values[1]?)))
             .filter(|(t, v)| t.is_finite() && v.is_finite())
             .unzip();
-        Ok((!t.is_empty()).then(|| crate::resample::linear(&t, &v, &time_s)))
+        Ok(crate::resample::linear(&t, &v, &time_s))
     };
     let altitude_m = match series("CTUN", "Alt")? {
         Some(a) => Some(a),

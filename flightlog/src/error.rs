@@ -155,6 +155,21 @@ pub enum FlightLogError {
 }
 
 impl FlightLogError {
+    /// A [`FlightLogError::Binary`]: `field` of the message at byte `offset` of `path`.
+    pub(crate) fn binary(
+        path: &std::path::Path,
+        offset: u64,
+        field: impl Into<String>,
+        message: String,
+    ) -> Self {
+        Self::Binary {
+            path: path.to_owned(),
+            offset,
+            field: field.into(),
+            message,
+        }
+    }
+
     /// The file (or folder) the error is about.
     pub fn path(&self) -> &std::path::Path {
         match self {

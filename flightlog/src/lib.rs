@@ -417,18 +417,6 @@ impl Flight {
     }
 }
 
-/// One message of a binary log, reduced to the numeric fields asked for, as the
-/// first-instance `columns` readers return it (`NaN` for a missing field; [`Row`], from
-/// `rows`, says `None` instead).
-#[derive(Debug, Clone, PartialEq)]
-pub struct Record {
-    /// Byte offset of the message in the file.
-    pub offset: u64,
-    /// The fields' values, in the order asked for (`NaN` for an optional field the message
-    /// type lacks).
-    pub values: Vec<f64>,
-}
-
 /// One message of a binary log, reduced to the numeric fields asked for; `None` for a field
 /// the message's format lacks.
 #[derive(Debug, Clone, PartialEq)]
@@ -439,17 +427,18 @@ pub struct Row {
     pub values: Vec<Option<f64>>,
 }
 
-impl From<Row> for Record {
-    /// The older, NaN-for-missing form of a row.
-    fn from(r: Row) -> Self {
-        Record {
-            offset: r.offset,
-            values: r
-                .values
-                .into_iter()
-                .map(|v| v.unwrap_or(f64::NAN))
-                .collect(),
-        }
+impl Row {
+    /// The rows that have a value for each of `fields` (indices into [`Row::values`]). The
+    /// readers fill a required field in every row, so this drops nothing for them; it lets
+    /// their values be read without a stand-in for "missing".
+    pub(crate) fn having<'a>(rows: &'a [Row], fields: &[usize]) -> Vec<&'a Row> {
+        rows.iter()
+            .filter(|r| {
+                fields
+                    .iter()
+                    .all(|&k| r.values.get(k).is_some_and(Option::is_some))
+            })
+            .collect()
     }
 }
 
@@ -531,6 +520,21 @@ pub(crate) fn check_time(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rows_having_fields_keep_only_complete_ones() {
+        let row = |offset, values: Vec<Option<f64>>| Row { offset, values };
+        let rows = [
+            row(0, vec![Some(1.0), Some(2.0), None]),
+            row(1, vec![Some(1.0), None, Some(3.0)]),
+            row(2, vec![Some(1.0)]),
+        ];
+        let offsets =
+            |k: &[usize]| -> Vec<u64> { Row::having(&rows, k).iter().map(|r| r.offset).collect() };
+        assert_eq!(offsets(&[0, 1]), [0]);
+        assert_eq!(offsets(&[0]), [0, 1, 2]);
+        assert_eq!(offsets(&[2]), [1]);
+    }
 
     #[test]
     fn time_checks() {

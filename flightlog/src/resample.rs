@@ -1,8 +1,9 @@
 //! Putting a signal logged at its own times onto the battery's time base.
 
 /// Linear interpolation of `(t, v)` at each of `at`; held constant beyond the ends. `t` need
-/// not be sorted (it is sorted here); non-finite pairs are dropped. Empty input gives NaN.
-pub(crate) fn linear(t: &[f64], v: &[f64], at: &[f64]) -> Vec<f64> {
+/// not be sorted (it is sorted here); non-finite pairs are dropped. `None` when no finite
+/// pair is left.
+pub(crate) fn linear(t: &[f64], v: &[f64], at: &[f64]) -> Option<Vec<f64>> {
     let mut pairs: Vec<(f64, f64)> = t
         .iter()
         .zip(v)
@@ -10,9 +11,7 @@ pub(crate) fn linear(t: &[f64], v: &[f64], at: &[f64]) -> Vec<f64> {
         .filter(|(a, b)| a.is_finite() && b.is_finite())
         .collect();
     pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let Some(&first) = pairs.first() else {
-        return vec![f64::NAN; at.len()];
-    };
+    let &first = pairs.first()?;
     let mut out = Vec::with_capacity(at.len());
     let mut k = 0usize;
     for &x in at {
@@ -37,7 +36,7 @@ pub(crate) fn linear(t: &[f64], v: &[f64], at: &[f64]) -> Vec<f64> {
         };
         out.push(value);
     }
-    out
+    Some(out)
 }
 
 /// The last value of `(t, v)` at or before each of `at` (the first value before it begins).
@@ -73,9 +72,13 @@ mod tests {
     #[test]
     fn interpolates_and_holds() {
         let v = linear(&[1.0, 0.0, 2.0], &[10.0, 0.0, 20.0], &[-1.0, 0.5, 1.5, 3.0]);
-        assert_eq!(v, [0.0, 5.0, 15.0, 20.0]);
+        assert_eq!(v.as_deref(), Some(&[0.0, 5.0, 15.0, 20.0][..]));
         let h = hold(&[0.0, 1.0], &[true, false], &[-1.0, 0.5, 1.0, 2.0]);
         assert_eq!(h, [true, true, false, false]);
-        assert!(linear(&[], &[], &[1.0])[0].is_nan());
+        assert_eq!(linear(&[], &[], &[1.0]), None);
+        assert_eq!(
+            linear(&[0.0, 1.0], &[f64::NAN, f64::INFINITY], &[1.0]),
+            None
+        );
     }
 }

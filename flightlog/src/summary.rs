@@ -24,8 +24,8 @@ pub struct FlightSummary {
     pub samples: usize,
     /// Mean sample rate, Hz.
     pub rate_hz: f64,
-    /// Lowest and highest battery voltage, V.
-    pub voltage_v: [f64; 2],
+    /// Lowest and highest battery voltage, V (`None`: no finite reading).
+    pub voltage_v: Option<[f64; 2]>,
     /// Lowest and highest current, A, when logged.
     pub current_a: Option<[f64; 2]>,
     /// Energy drawn, Wh (∫ V·I dt, trapezoidal), when current is logged.
@@ -121,7 +121,7 @@ impl FlightSummary {
     pub fn of(flight: &Flight) -> Self {
         let s = &flight.samples;
         let duration_s = s.duration_s();
-        let voltage_v = range(&s.voltage_v).unwrap_or([f64::NAN; 2]);
+        let voltage_v = range(&s.voltage_v);
         let current_a = s.current_a.as_deref().and_then(range);
         let energy_wh = s.power_w().map(|p| {
             let joules: f64 = s
@@ -207,7 +207,7 @@ impl FlightSummary {
             } else {
                 0.0
             },
-            voltage_v: voltage_v.map(|v| round(v, 4)),
+            voltage_v: voltage_v.map(|v| v.map(|v| round(v, 4))),
             current_a: current_a.map(|c| c.map(|v| round(v, 4))),
             energy_wh,
             phases,

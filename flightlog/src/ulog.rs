@@ -24,7 +24,7 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use crate::battery::{self, Track};
-use crate::{Decoded, FlightLogError, LogInfo, Record, Row, Samples, Vehicle, VehicleKind};
+use crate::{Decoded, FlightLogError, LogInfo, Row, Samples, Vehicle, VehicleKind};
 
 /// The first seven bytes of every ULog file.
 pub const MAGIC: [u8; 7] = [0x55, 0x4C, 0x6F, 0x67, 0x01, 0x12, 0x35];
@@ -222,11 +222,8 @@ fn parse_format(text: &str) -> Result<(String, Vec<FieldDef>), String> {
 impl<'a> ULog<'a> {
     /// Parses a ULog file held in memory; `path` names it in errors.
     pub fn parse(bytes: &'a [u8], path: &Path) -> Result<Self, FlightLogError> {
-        let fail = |offset: usize, field: &str, message: String| FlightLogError::Binary {
-            path: path.to_owned(),
-            offset: offset as u64,
-            field: field.to_owned(),
-            message,
+        let fail = |offset: usize, field: &str, message: String| {
+            FlightLogError::binary(path, offset as u64, field, message)
         };
         if bytes.len() < HEADER_LEN || !bytes.starts_with(&MAGIC) {
             return Err(fail(
@@ -451,25 +448,19 @@ impl<'a> ULog<'a> {
         v
     }
 
-    /// Values of top-level scalar fields of a topic's first instance, one row per message:
-    /// `(byte offset, values)`. `Ok(None)` when the topic has no data; a missing field is
-    /// `NaN` in every row when `required` is false, else an error. (See [`ULog::rows`] for
-    /// any instance, with `None` for a missing field.)
+    /// Values of top-level scalar fields of a topic's first instance, one row per message.
+    /// `Ok(None)` when the topic has no data; a field the format lacks is `None` in every
+    /// row when `required` is false, else an error. (See [`ULog::rows`] for any instance.)
     pub fn columns(
         &self,
         topic: &str,
         fields: &[(&str, bool)],
         path: &Path,
-    ) -> Result<Option<Vec<Record>>, FlightLogError> {
+    ) -> Result<Option<Vec<Row>>, FlightLogError> {
         let Some(multi) = self.first_instance(topic) else {
             return Ok(None);
         };
-        Ok(Some(
-            self.rows(topic, multi, fields, path)?
-                .into_iter()
-                .map(Record::from)
-                .collect(),
-        ))
+        self.rows(topic, multi, fields, path).map(Some)
     }
 
     /// Values of top-level scalar fields of one instance of a topic, one row per message.
@@ -486,11 +477,8 @@ impl<'a> ULog<'a> {
             return Ok(Vec::new());
         };
         let first_offset = messages.first().map_or(0, |m| m.offset);
-        let fail = |offset: u64, field: &str, message: String| FlightLogError::Binary {
-            path: path.to_owned(),
-            offset,
-            field: format!("{topic}.{field}"),
-            message,
+        let fail = |offset: u64, field: &str, message: String| {
+            FlightLogError::binary(path, offset, format!("{topic}.{field}"), message)
         };
         let mut layout = Vec::with_capacity(fields.len());
         for &(name, required) in fields {
@@ -583,6 +571,8 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
     let mut tracks = Vec::new();
     for instance in log.instances("battery_status") {
         let rows = log.rows("battery_status", instance, &fields, path)?;
+        // Time and voltage are required fields: every row has them.
+        let rows = Row::having(&rows, &[0, 1]);
         if rows.is_empty() {
             continue;
         }
@@ -602,8 +592,8 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
         tracks.push(Track {
             name: format!("battery_status instance {instance}"),
             offsets: rows.iter().map(|r| r.offset).collect(),
-            time_s: col(0).map(|t| t.unwrap_or(f64::NAN) / 1e6).collect(),
-            voltage_v: col(1).map(|v| v.unwrap_or(f64::NAN)).collect(),
+            time_s: col(0).flatten().map(|t| t / 1e6).collect(),
+            voltage_v: col(1).flatten().collect(),
             current_a: col(2).collect(),
             connected: present(3).then(|| col(3).map(|c| c != Some(0.0)).collect()),
             remaining: present(4).then(|| col(4).map(|r| r.unwrap_or(-1.0)).collect()),
@@ -710,17 +700,20 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
         path,
     )? {
         Some(rows) => {
+            // z_valid, when logged, must not be 0.
             let (t, z): (Vec<f64>, Vec<f64>) = rows
                 .iter()
-                .filter(|r| r.values[2] != 0.0 && r.values[1].is_finite())
-                .map(|r| (r.values[0] / 1e6 - t0, -r.values[1]))
+                .filter(|r| r.values[2] != Some(0.0))
+                .filter_map(|r| match (r.values[0], r.values[1]) {
+                    (Some(t), Some(z)) if z.is_finite() => Some((t / 1e6 - t0, -z)),
+                    _ => None,
+                })
                 .unzip();
-            if t.is_empty() {
+            let altitude_m = crate::resample::linear(&t, &z, &time_s);
+            if altitude_m.is_none() {
                 warnings.push("vehicle_local_position has no valid z".to_owned());
-                None
-            } else {
-                Some(crate::resample::linear(&t, &z, &time_s))
             }
+            altitude_m
         }
         None => None,
     };
@@ -733,7 +726,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
         .map(|rows| {
             let (t, l): (Vec<f64>, Vec<bool>) = rows
                 .iter()
-                .map(|r| (r.values[0] / 1e6 - t0, r.values[1] != 0.0))
+                .filter_map(|r| Some((r.values[0]? / 1e6 - t0, r.values[1]? != 0.0)))
                 .unzip();
             crate::resample::hold(&t, &l, &time_s)
         });

@@ -2,7 +2,6 @@
 //! place, not copied).
 
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 use flightlog::{Flight, FlightSet, LogFormat, Phase, PhaseSource, crazyflie};
 
@@ -106,18 +105,15 @@ fn folder_layout_subset_with_plans_and_override() {
     );
 }
 
-/// All 90 flights (735,170 rows, 23 MB): about 0.7 s in a debug build on two cores (the
-/// numbers are parsed by the standard library, which is optimised even in debug builds).
+/// All 90 flights (735,170 rows, 23 MB). Its speed is a benchmark's business, not a test's
+/// (shared 2-core machines are too noisy for timed tests).
 #[test]
 fn full_dataset() {
-    let start = Instant::now();
     let set = FlightSet::read(&dataset()).unwrap();
-    let elapsed = start.elapsed();
     assert_eq!(set.flights.len(), 90, "{:?}", set.skipped);
     assert!(set.skipped.is_empty());
     let rows: usize = set.flights.iter().map(|f| f.samples.len()).sum();
     assert_eq!(rows, 735_260 - 90);
     assert!(set.flights.iter().all(|f| f.planned_waypoints_m.is_some()));
     assert!(set.flights.iter().all(|f| f.warnings.is_empty()));
-    assert!(elapsed.as_secs_f64() < 20.0, "{elapsed:?}");
 }

@@ -159,25 +159,17 @@ fn baro_altitude_when_no_ctun() {
     assert!(flight.samples.throttle.is_none());
 }
 
+/// A BAT message of instance 0 at `time_us`: 12 V, 3 A.
+fn steady_bat(w: &mut DataFlashWriter, time_us: f64) {
+    w.write(BAT, &[time_us, 0.0, 12.0, 12.0, 3.0, 0.0, 0.0, 20.0, 0.0]);
+}
+
 #[test]
 fn garbage_is_skipped_and_counted() {
     let mut w = DataFlashWriter::new();
     define_standard(&mut w);
     for k in 0..10 {
-        w.write(
-            BAT,
-            &[
-                f64::from(k) * 1e5,
-                0.0,
-                12.0,
-                12.0,
-                3.0,
-                0.0,
-                0.0,
-                20.0,
-                0.0,
-            ],
-        );
+        steady_bat(&mut w, f64::from(k) * 1e5);
         if k == 4 {
             w.raw(&[0xFF; 37]);
             w.raw(&[0xA3, 0x95, 0x07]); // an undefined type
@@ -307,20 +299,7 @@ fn slow_battery_rate_is_refused() {
     let mut w = DataFlashWriter::new();
     define_standard(&mut w);
     for k in 0..5 {
-        w.write(
-            BAT,
-            &[
-                f64::from(k) * 2e6,
-                0.0,
-                12.0,
-                12.0,
-                3.0,
-                0.0,
-                0.0,
-                20.0,
-                0.0,
-            ],
-        );
+        steady_bat(&mut w, f64::from(k) * 2e6);
     }
     let err = parse(&w.finish()).unwrap_err();
     assert!(err.to_string().contains("1 Hz"), "{err}");

@@ -91,7 +91,8 @@ impl FlightRecord {
             .zip(&self.phase)
             .filter(|(_, p)| rotors_on(**p))
             .map(|(w, _)| (w[1] - w[0]).max(0.0))
-            .sum()
+            // from +0.0: an empty `sum()` of f64 is -0.0, printed "-0.0 s"
+            .fold(0.0, |a, b| a + b)
     }
 
     /// Vertical speed at every sample from the altitude log (central differences over a

@@ -65,6 +65,7 @@ pub mod flight;
 pub mod lipo;
 pub mod logs;
 pub mod model;
+pub mod params_link;
 pub mod stats;
 pub mod summary;
 

@@ -133,6 +133,16 @@ fn world(fade: f64) -> World {
 }
 
 fn run(w: &World, fixed: Option<BatterySet>) -> Diagnosis {
+    run_with(w, fixed, &DiagnoseOptions::default()).unwrap()
+}
+
+/// Diagnoses the world's flights with a constant-power model of the simulated rotor, with
+/// `fixed` batteries (else learned from the training flights).
+fn run_with(
+    w: &World,
+    fixed: Option<BatterySet>,
+    opts: &DiagnoseOptions,
+) -> Result<Diagnosis, gap::GapError> {
     let curve = ConstantPower {
         hover_power_w: HOVER_W,
         reference_mass_kg: MASS_KG,
@@ -143,10 +153,9 @@ fn run(w: &World, fixed: Option<BatterySet>) -> Diagnosis {
     };
     let train: Vec<&FlightRecord> = w.train.iter().collect();
     let held: Vec<&FlightRecord> = w.held.iter().collect();
-    let opts = DiagnoseOptions::default();
     match fixed {
-        Some(b) => diagnose_with(model, &b, &train, &held, &opts).unwrap(),
-        None => diagnose(model, &train, &held, &opts).unwrap(),
+        Some(b) => diagnose_with(model, &b, &train, &held, opts),
+        None => diagnose(model, &train, &held, opts),
     }
 }
 
@@ -235,21 +244,11 @@ fn capacity_fade_is_found_when_the_curve_is_given() {
         .map(|(s, v)| format!("{s},{v}\n"))
         .collect();
     let measured = gap::battery::LearnedBattery::from_ocv_csv(&text).unwrap();
-    let curve = ConstantPower {
-        hover_power_w: HOVER_W,
-        reference_mass_kg: MASS_KG,
-    };
-    let model = Model {
-        curve: &curve,
-        rotor_count: 1,
-    };
-    let train: Vec<&FlightRecord> = w.train.iter().collect();
-    let held: Vec<&FlightRecord> = w.held.iter().collect();
     let opts = DiagnoseOptions {
         measured_ocv: Some(measured),
         ..DiagnoseOptions::default()
     };
-    let d = diagnose(model, &train, &held, &opts).unwrap();
+    let d = run_with(&w, None, &opts).unwrap();
     eprintln!(
         "fade 0.12, curve given: verdict {:?} {:?}, held-out endurance {:?} → {:?} %",
         d.verdict,
@@ -274,21 +273,11 @@ fn capacity_fade_is_found_when_the_curve_is_given() {
 #[test]
 fn more_effects_than_the_library_holds_is_an_error() {
     let w = world(0.0);
-    let curve = ConstantPower {
-        hover_power_w: HOVER_W,
-        reference_mass_kg: MASS_KG,
-    };
-    let model = Model {
-        curve: &curve,
-        rotor_count: 1,
-    };
-    let train: Vec<&FlightRecord> = w.train.iter().collect();
-    let held: Vec<&FlightRecord> = w.held.iter().collect();
     let opts = DiagnoseOptions {
         max_effects: 9,
         ..DiagnoseOptions::default()
     };
-    let e = diagnose(model, &train, &held, &opts).unwrap_err();
+    let e = run_with(&w, None, &opts).unwrap_err();
     assert!(e.to_string().contains("max_effects 9"), "{e}");
 }
 

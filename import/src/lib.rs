@@ -41,6 +41,7 @@ pub enum ImportError {
         /// The file.
         source_name: String,
         /// The cause.
+        #[source]
         error: std::io::Error,
     },
     /// Malformed CSV (unbalanced quotes, a row with another number of fields, bad UTF-8).
@@ -409,6 +410,28 @@ impl Table {
     /// A numeric column over the valid rows in which an empty cell means "not recorded" (a
     /// single-sample step has no standard deviation): `None` for an empty cell.
     pub fn optional_column(&self, name: &str) -> Result<Vec<Option<f64>>, ImportError> {
+        self.optional_values(name, |_, v| Ok(v))
+    }
+
+    /// An uncertainty column (a standard deviation) over the valid rows: empty cells are `None`,
+    /// and every value must be a finite number ≥ 0.
+    pub fn uncertainty_column(&self, name: &str) -> Result<Vec<Option<f64>>, ImportError> {
+        self.optional_values(name, |r, v| {
+            if v < 0.0 {
+                Err(self.bad_value(r, name, "a standard deviation ≥ 0"))
+            } else {
+                Ok(v)
+            }
+        })
+    }
+
+    /// Column `name` over the valid rows, `None` for an empty cell; `check(row, value)`
+    /// accepts or refuses each number.
+    fn optional_values(
+        &self,
+        name: &str,
+        check: impl Fn(usize, f64) -> Result<f64, ImportError>,
+    ) -> Result<Vec<Option<f64>>, ImportError> {
         let col = self.index(name)?;
         let valid = self.valid_rows()?;
         (0..self.n_rows)
@@ -417,28 +440,8 @@ impl Table {
                 if self.cell(r, col).is_empty() {
                     Ok(None)
                 } else {
-                    self.number(r, col).map(Some)
+                    check(r, self.number(r, col)?).map(Some)
                 }
-            })
-            .collect()
-    }
-
-    /// An uncertainty column (a standard deviation) over the valid rows: empty cells are `None`,
-    /// and every value must be a finite number ≥ 0.
-    pub fn uncertainty_column(&self, name: &str) -> Result<Vec<Option<f64>>, ImportError> {
-        let col = self.index(name)?;
-        let valid = self.valid_rows()?;
-        (0..self.n_rows)
-            .filter(|&r| valid[r])
-            .map(|r| {
-                if self.cell(r, col).is_empty() {
-                    return Ok(None);
-                }
-                let v = self.number(r, col)?;
-                if v < 0.0 {
-                    return Err(self.bad_value(r, name, "a standard deviation ≥ 0"));
-                }
-                Ok(Some(v))
             })
             .collect()
     }

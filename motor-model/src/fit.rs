@@ -50,6 +50,8 @@ pub struct Scale {
     pub max_thrust_g: f64,
     /// Largest measured value of every quantity (0 when not logged), in [`Quantity::ALL`] order.
     pub max_measured: [f64; 5],
+    /// Median time between consecutive steps, s (1 when the logs have no time: a step).
+    pub step_s: f64,
 }
 
 impl Scale {
@@ -57,6 +59,13 @@ impl Scale {
     pub fn of(sweeps: &[&Sweep]) -> Self {
         let mut max_thrust_g: f64 = 0.0;
         let mut max_measured = [0.0f64; 5];
+        let mut dts: Vec<f64> = sweeps
+            .iter()
+            .flat_map(|s| s.steps.windows(2).map(|w| w[1].time_s - w[0].time_s))
+            .filter(|d| *d > 0.0 && d.is_finite())
+            .collect();
+        dts.sort_by(f64::total_cmp);
+        let step_s = dts.get(dts.len() / 2).copied().unwrap_or(1.0);
         for s in sweeps {
             for o in &s.steps {
                 max_thrust_g = max_thrust_g.max(o.thrust_g.abs());
@@ -70,6 +79,7 @@ impl Scale {
         Self {
             max_thrust_g,
             max_measured,
+            step_s,
         }
     }
 
@@ -97,16 +107,23 @@ pub fn bounds(p: Param, s: &Scale) -> (f64, f64) {
         Param::SupplyVoltageV => (0.5, 1000.0),
         // A source dropping at most a third of the voltage at the largest current.
         Param::SourceResistanceOhm => (0.0, v / (3.0 * i)),
-        Param::ThermalResistanceKPerW => (0.0, 60.0),
-        Param::ThermalTauSteps => (0.5, 200.0),
+        // Wide: only the product with the (often poorly known) winding resistance is seen; the
+        // diagnosis checks the winding temperature rise it implies instead.
+        Param::ThermalResistanceKPerW => (0.0, 5000.0),
+        Param::ThermalTauS => (0.5 * s.step_s, 200.0 * s.step_s),
         Param::NoLoadSlopeAPerKrpm => (-0.5 * i / 10.0, i / 10.0),
         Param::EscPartialLoss => (0.0, 0.4),
         Param::DragReExponent => (-0.4, 0.4),
         Param::LoadcellOffsetG => (-0.1 * t, 0.1 * t),
-        Param::LoadcellCreepG => (-0.1 * t, 0.1 * t),
+        // At most a tenth of the largest thrust over ten steps at the start.
+        Param::LoadcellRateGPerS => (-0.01 * t / s.step_s, 0.01 * t / s.step_s),
+        // From a step to a thousand steps (the latter a steady linear drift over a session).
+        Param::LoadcellTauS => (s.step_s, 1000.0 * s.step_s),
+        Param::PolarisationOhm => (0.0, v / (3.0 * i)),
+        Param::PolarisationTauS => (0.5 * s.step_s, 200.0 * s.step_s),
         Param::BlockageFraction => (0.0, 0.3),
         // At most a quarter of the voltage over 20 steps at the largest current.
-        Param::DischargeVPerAStep => (0.0, 0.25 * v / (20.0 * i)),
+        Param::DischargeVPerAs => (0.0, 0.25 * v / (20.0 * i * s.step_s)),
     }
 }
 
@@ -382,6 +399,9 @@ mod tests {
             .map(|i| Point {
                 thrust_g: 100.0 + 900.0 * i as f64 / (n - 1) as f64,
                 time_frac: i as f64 / (n - 1) as f64,
+                time_s: 4.0 * i as f64,
+                tare_time_s: 0.0,
+                measured_current_a: None,
             })
             .collect();
         let pr = predict_sweep(p, &pts);
@@ -393,6 +413,7 @@ mod tests {
                 .map(|(pt, pr)| Observation {
                     thrust_g: pt.thrust_g,
                     time_frac: pt.time_frac,
+                    time_s: pt.time_s,
                     power_w: Some(pr.power_w),
                     current_a: Some(pr.current_a),
                     voltage_v: Some(pr.voltage_v),
@@ -401,6 +422,7 @@ mod tests {
                 })
                 .collect(),
             open_circuit_v: None,
+            tare_time_s: 0.0,
         }
     }
 

@@ -24,7 +24,7 @@
 //! use motor_model::{Params, Point, predict_sweep};
 //! let mut p = Params::default();
 //! p.set_base(2300.0, 0.08, 0.5, 0.95, 20.0, 0.002, 12.0);
-//! let pred = predict_sweep(&p, &[Point { thrust_g: 400.0, time_frac: 0.0 }]);
+//! let pred = predict_sweep(&p, &[Point { thrust_g: 400.0, time_frac: 0.0, time_s: 0.0, tare_time_s: 0.0, measured_current_a: None }]);
 //! assert!(pred[0].power_w > 10.0 && pred[0].power_w < 200.0);
 //! assert!((pred[0].rpm - 1000.0 * (400.0f64 / 20.0).sqrt()).abs() < 1e-9);
 //! ```
@@ -59,8 +59,8 @@ pub enum Param {
     SourceResistanceOhm,
     /// `winding_heating`: winding thermal resistance, K/W.
     ThermalResistanceKPerW,
-    /// `winding_heating`: winding thermal time constant, steps.
-    ThermalTauSteps,
+    /// `winding_heating`: winding thermal time constant, s (in steps when the log has no time).
+    ThermalTauS,
     /// `no_load_current`: rise of the no-load current with speed, A per 1000 rpm.
     NoLoadSlopeAPerKrpm,
     /// `esc_loss`: efficiency lost at zero duty (linear in `1 − duty`), fraction.
@@ -69,17 +69,25 @@ pub enum Param {
     DragReExponent,
     /// `loadcell_drift`: tare offset, g.
     LoadcellOffsetG,
-    /// `loadcell_drift`: tare creep over a sweep, g.
-    LoadcellCreepG,
+    /// `loadcell_drift`: drift rate of the load cell's zero at the start of the log, g/s (g per
+    /// step when the log has no time).
+    LoadcellRateGPerS,
     /// `stand_blockage`: share of thrust lost to the stand, fraction.
     BlockageFraction,
-    /// `supply_sag`: a battery's open-circuit voltage drop per charge drawn, V per ampere-step
-    /// (state of charge falling during the sweep).
-    DischargeVPerAStep,
+    /// `supply_sag`: a battery's open-circuit voltage drop per charge drawn, V per A·s (per
+    /// ampere-step when the log has no time): the state of charge falling during the sweep.
+    DischargeVPerAs,
+    /// `loadcell_drift`: time constant over which the zero's drift settles (a strain-gauge
+    /// bridge warming up, creep under load), s; very long is a steady linear drift.
+    LoadcellTauS,
+    /// `supply_sag`: a battery's polarisation resistance (its RC branch), Ω.
+    PolarisationOhm,
+    /// `supply_sag`: the polarisation's time constant, s (steps when the log has no time).
+    PolarisationTauS,
 }
 
 /// Number of parameters.
-pub const N_PARAMS: usize = 17;
+pub const N_PARAMS: usize = 20;
 
 impl Param {
     /// Every parameter, in index order.
@@ -93,14 +101,17 @@ impl Param {
         Param::SupplyVoltageV,
         Param::SourceResistanceOhm,
         Param::ThermalResistanceKPerW,
-        Param::ThermalTauSteps,
+        Param::ThermalTauS,
         Param::NoLoadSlopeAPerKrpm,
         Param::EscPartialLoss,
         Param::DragReExponent,
         Param::LoadcellOffsetG,
-        Param::LoadcellCreepG,
+        Param::LoadcellRateGPerS,
         Param::BlockageFraction,
-        Param::DischargeVPerAStep,
+        Param::DischargeVPerAs,
+        Param::LoadcellTauS,
+        Param::PolarisationOhm,
+        Param::PolarisationTauS,
     ];
 
     /// The base model's parameters.
@@ -131,20 +142,25 @@ impl Param {
             Param::SupplyVoltageV => "supply_voltage_v",
             Param::SourceResistanceOhm => "source_resistance_ohm",
             Param::ThermalResistanceKPerW => "thermal_resistance_k_per_w",
-            Param::ThermalTauSteps => "thermal_tau_steps",
+            Param::ThermalTauS => "thermal_tau_s",
             Param::NoLoadSlopeAPerKrpm => "no_load_slope_a_per_krpm",
             Param::EscPartialLoss => "esc_partial_loss",
             Param::DragReExponent => "drag_re_exponent",
             Param::LoadcellOffsetG => "loadcell_offset_g",
-            Param::LoadcellCreepG => "loadcell_creep_g",
+            Param::LoadcellRateGPerS => "loadcell_rate_g_per_s",
             Param::BlockageFraction => "blockage_fraction",
-            Param::DischargeVPerAStep => "discharge_v_per_a_step",
+            Param::DischargeVPerAs => "discharge_v_per_as",
+            Param::LoadcellTauS => "loadcell_tau_s",
+            Param::PolarisationOhm => "polarisation_ohm",
+            Param::PolarisationTauS => "polarisation_tau_s",
         }
     }
 
     /// Whether the parameter is strictly positive and fitted in log space.
     pub fn positive(self) -> bool {
         Param::BASE.contains(&self)
+            || self == Param::LoadcellTauS
+            || self == Param::PolarisationTauS
     }
 }
 
@@ -199,15 +215,33 @@ impl Effect {
         Effect::ALL.into_iter().find(|e| e.name() == s)
     }
 
+    /// The parameters of its short form, tried first on little data: `supply_sag` without the
+    /// battery's polarisation branch; the others have one form.
+    pub fn short_params(self) -> &'static [Param] {
+        match self {
+            Effect::SupplySag => &[Param::SourceResistanceOhm, Param::DischargeVPerAs],
+            e => e.params(),
+        }
+    }
+
     /// The parameters it adds.
     pub fn params(self) -> &'static [Param] {
         match self {
-            Effect::SupplySag => &[Param::SourceResistanceOhm, Param::DischargeVPerAStep],
-            Effect::WindingHeating => &[Param::ThermalResistanceKPerW, Param::ThermalTauSteps],
+            Effect::SupplySag => &[
+                Param::SourceResistanceOhm,
+                Param::DischargeVPerAs,
+                Param::PolarisationOhm,
+                Param::PolarisationTauS,
+            ],
+            Effect::WindingHeating => &[Param::ThermalResistanceKPerW, Param::ThermalTauS],
             Effect::NoLoadCurrent => &[Param::NoLoadSlopeAPerKrpm],
             Effect::EscLoss => &[Param::EscPartialLoss],
             Effect::ReynoldsEffect => &[Param::DragReExponent],
-            Effect::LoadcellDrift => &[Param::LoadcellOffsetG, Param::LoadcellCreepG],
+            Effect::LoadcellDrift => &[
+                Param::LoadcellOffsetG,
+                Param::LoadcellRateGPerS,
+                Param::LoadcellTauS,
+            ],
             Effect::StandBlockage => &[Param::BlockageFraction],
         }
     }
@@ -232,7 +266,9 @@ impl Default for Params {
         values[Param::ThrustCoeffGPerKrpm2.index()] = 10.0;
         values[Param::TorqueCoeffNmPerKrpm2.index()] = 0.000_2;
         values[Param::SupplyVoltageV.index()] = 12.0;
-        values[Param::ThermalTauSteps.index()] = 10.0;
+        values[Param::ThermalTauS.index()] = 10.0;
+        values[Param::LoadcellTauS.index()] = 100.0;
+        values[Param::PolarisationTauS.index()] = 10.0;
         Self {
             values,
             reference_rpm: 10_000.0,
@@ -271,6 +307,15 @@ pub struct Point {
     pub thrust_g: f64,
     /// Position in the sweep, 0 (first step) … 1 (last step).
     pub time_frac: f64,
+    /// Time since the log started, s (the step index when the log has no time column): the
+    /// clock of the thermal, discharge and load-cell drift extensions.
+    pub time_s: f64,
+    /// When the load cell was last tared (zeroed), on the same clock, s.
+    pub tare_time_s: f64,
+    /// The supply current the stand measured, A, when logged: the supply model (sag,
+    /// polarisation, discharge) is driven by it, so a supply whose form the model misses cannot
+    /// bend the motor–propeller part through the predicted current.
+    pub measured_current_a: Option<f64>,
 }
 
 /// What the model predicts at one point.
@@ -300,8 +345,8 @@ pub struct Prediction {
     pub winding_rise_k: f64,
 }
 
-/// Predicts a sweep's points in order (the winding temperature carries from one to the next,
-/// starting cold).
+/// Predicts a sweep's points in order (the winding temperature and the charge drawn carry from
+/// one to the next over the time between them, starting cold and full).
 pub fn predict_sweep(p: &Params, points: &[Point]) -> Vec<Prediction> {
     let kv = p.get(Param::KvRpmPerV);
     let r0 = p.get(Param::ResistanceOhm);
@@ -312,58 +357,99 @@ pub fn predict_sweep(p: &Params, points: &[Point]) -> Vec<Prediction> {
     let v0 = p.get(Param::SupplyVoltageV);
     let rs = p.get(Param::SourceResistanceOhm);
     let rth = p.get(Param::ThermalResistanceKPerW);
-    let tau = p.get(Param::ThermalTauSteps).max(1e-3);
+    let tau = p.get(Param::ThermalTauS).max(1e-3);
+    // Time between steps; the first step lasts as long as the typical one.
+    let dt_of = |k: usize| -> f64 {
+        if k > 0 {
+            (points[k].time_s - points[k - 1].time_s).max(0.0)
+        } else if points.len() > 1 {
+            (points[points.len() - 1].time_s - points[0].time_s).max(0.0)
+                / (points.len() - 1) as f64
+        } else {
+            1.0
+        }
+    };
     let slope = p.get(Param::NoLoadSlopeAPerKrpm);
     let esc_e = p.get(Param::EscPartialLoss);
     let re_a = p.get(Param::DragReExponent);
     let off = p.get(Param::LoadcellOffsetG);
-    let creep = p.get(Param::LoadcellCreepG);
+    let rate = p.get(Param::LoadcellRateGPerS);
+    let drift_tau = p.get(Param::LoadcellTauS).max(1e-3);
+    // The zero's drift since the log started, first order: rate·τ·(1 − e^(−t/τ)).
+    let drift = |t: f64| rate * drift_tau * -(-t / drift_tau).exp_m1();
     let block = p.get(Param::BlockageFraction);
-    let discharge = p.get(Param::DischargeVPerAStep);
-    let mut charge_a_steps = 0.0;
+    let discharge = p.get(Param::DischargeVPerAs);
+    let r1 = p.get(Param::PolarisationOhm);
+    let tau1 = p.get(Param::PolarisationTauS).max(1e-3);
+    let mut v_rc_prev = 0.0;
+    let mut charge_as = 0.0;
     let kt = 30.0 / (std::f64::consts::PI * kv);
-    let relax = 1.0 - (-1.0 / tau).exp();
-    let mut rise = 0.0;
+    let mut rise_prev = 0.0;
     points
         .iter()
-        .map(|pt| {
-            // Load cell: reading = (1 − blockage)·T + offset + creep·t.
-            let t_true = ((pt.thrust_g - off - creep * pt.time_frac) / (1.0 - block)).max(1e-9);
+        .enumerate()
+        .map(|(k, pt)| {
+            let dt = dt_of(k);
+            let relax = 1.0 - (-dt / tau).exp();
+            let relax1 = 1.0 - (-dt / tau1).exp();
+            // Load cell: reading = (1 − blockage)·T + offset + the drift since it was tared.
+            let creep = drift(pt.time_s) - drift(pt.tare_time_s);
+            let t_true = ((pt.thrust_g - off - creep) / (1.0 - block)).max(1e-9);
             let rpm = 1000.0 * (t_true / ct).sqrt();
             let omega = rpm * std::f64::consts::PI / 30.0;
             let cq_eff = cq * (rpm.max(1.0) / p.reference_rpm).powf(re_a);
             let q = cq_eff * (rpm / 1000.0).powi(2);
             let im = q / kt + i0 + slope * rpm / 1000.0;
-            let r = r0 * (1.0 + COPPER_ALPHA_PER_K * rise);
-            let vm = kt * omega + im * r;
-            let p_motor = vm * im;
-            let voc = (v0 - discharge * charge_a_steps).max(0.05 * v0);
-            let mut vbus = voc;
-            let mut p_in = p_motor / eta;
-            for _ in 0..6 {
-                let duty = (vm / vbus).min(1.0);
-                let e = (eta * (1.0 - esc_e * (1.0 - duty))).max(0.05);
-                p_in = p_motor / e;
-                let disc = voc * voc - 4.0 * rs * p_in;
-                vbus = 0.5 * (voc + disc.max(0.0).sqrt());
+            // The step is read at the end of its dwell: the winding has heated and the battery
+            // discharged during it at the step's own load (a fixed point, a few passes).
+            let mut rise = rise_prev;
+            let mut v_rc = v_rc_prev;
+            let mut i_bus = 0.0;
+            let mut pred = None;
+            for _ in 0..3 {
+                let r = r0 * (1.0 + COPPER_ALPHA_PER_K * rise);
+                let vm = kt * omega + im * r;
+                let p_motor = vm * im;
+                let voc = (v0 - discharge * (charge_as + i_bus * dt) - v_rc).max(0.05 * v0);
+                let mut vbus = voc;
+                let mut p_in = p_motor / eta;
+                for _ in 0..6 {
+                    let duty = (vm / vbus).min(1.0);
+                    let e = (eta * (1.0 - esc_e * (1.0 - duty))).max(0.05);
+                    p_in = p_motor / e;
+                    vbus = match pt.measured_current_a {
+                        Some(i) => (voc - rs * i).max(0.05 * v0),
+                        None => {
+                            let disc = voc * voc - 4.0 * rs * p_in;
+                            0.5 * (voc + disc.max(0.0).sqrt())
+                        }
+                    };
+                }
+                i_bus = pt.measured_current_a.unwrap_or(p_in / vbus);
+                let pcu = im * im * r;
+                pred = Some(Prediction {
+                    thrust_true_g: t_true,
+                    rpm,
+                    torque_nm: q,
+                    motor_current_a: im,
+                    motor_voltage_v: vm,
+                    duty: vm / vbus,
+                    voltage_v: vbus,
+                    current_a: p_in / vbus,
+                    power_w: p_in,
+                    copper_loss_w: pcu,
+                    winding_rise_k: rise,
+                });
+                if rth == 0.0 && discharge == 0.0 && r1 == 0.0 {
+                    break;
+                }
+                rise = rise_prev + (rth * pcu - rise_prev) * relax;
+                v_rc = v_rc_prev + (i_bus * r1 - v_rc_prev) * relax1;
             }
-            charge_a_steps += p_in / vbus;
-            let pcu = im * im * r;
-            let pred = Prediction {
-                thrust_true_g: t_true,
-                rpm,
-                torque_nm: q,
-                motor_current_a: im,
-                motor_voltage_v: vm,
-                duty: vm / vbus,
-                voltage_v: vbus,
-                current_a: p_in / vbus,
-                power_w: p_in,
-                copper_loss_w: pcu,
-                winding_rise_k: rise,
-            };
-            rise += (rth * pcu - rise) * relax;
-            pred
+            rise_prev = rise;
+            v_rc_prev = v_rc;
+            charge_as += i_bus * dt;
+            pred.expect("at least one pass")
         })
         .collect()
 }
@@ -424,6 +510,8 @@ pub struct Observation {
     pub thrust_g: f64,
     /// Position in the sweep, 0 … 1.
     pub time_frac: f64,
+    /// Time since the log started, s (the step index when the log has no time column).
+    pub time_s: f64,
     /// Electrical power, W.
     pub power_w: Option<f64>,
     /// Supply current, A.
@@ -453,6 +541,12 @@ impl Observation {
         Point {
             thrust_g: self.thrust_g,
             time_frac: self.time_frac,
+            time_s: self.time_s,
+            tare_time_s: 0.0,
+            measured_current_a: self
+                .current_a
+                .or_else(|| self.power_w.zip(self.voltage_v).map(|(p, v)| p / v))
+                .filter(|i| i.is_finite()),
         }
     }
 }
@@ -467,12 +561,21 @@ pub struct Sweep {
     /// The supply's open-circuit voltage for this sweep when it was measured (e.g. a battery's
     /// voltage at idle before the sweep); it replaces [`Param::SupplyVoltageV`] for this sweep.
     pub open_circuit_v: Option<f64>,
+    /// When the load cell was tared before this sweep, on the steps' clock, s.
+    pub tare_time_s: f64,
 }
 
 impl Sweep {
     /// Predictions for every step.
     pub fn predict(&self, p: &Params) -> Vec<Prediction> {
-        let pts: Vec<Point> = self.steps.iter().map(|o| o.point()).collect();
+        let pts: Vec<Point> = self
+            .steps
+            .iter()
+            .map(|o| Point {
+                tare_time_s: self.tare_time_s,
+                ..o.point()
+            })
+            .collect();
         match self.open_circuit_v {
             Some(v) => {
                 let mut q = *p;
@@ -502,6 +605,9 @@ mod tests {
             &[Point {
                 thrust_g: 800.0,
                 time_frac: 0.0,
+                time_s: 0.0,
+                tare_time_s: 0.0,
+                measured_current_a: None,
             }],
         )[0];
         let omega = pred.rpm * std::f64::consts::PI / 30.0;
@@ -521,6 +627,9 @@ mod tests {
         let pt = [Point {
             thrust_g: 800.0,
             time_frac: 0.0,
+            time_s: 0.0,
+            tare_time_s: 0.0,
+            measured_current_a: None,
         }];
         let a = predict_sweep(&p, &pt)[0];
         p.set(Param::SourceResistanceOhm, 0.1);
@@ -534,16 +643,89 @@ mod tests {
     fn heating_raises_power_over_time() {
         let mut p = base();
         p.set(Param::ThermalResistanceKPerW, 10.0);
-        p.set(Param::ThermalTauSteps, 3.0);
+        p.set(Param::ThermalTauS, 3.0);
         let pts: Vec<Point> = (0..10)
             .map(|i| Point {
                 thrust_g: 800.0,
                 time_frac: i as f64 / 9.0,
+                time_s: i as f64,
+                tare_time_s: 0.0,
+                measured_current_a: None,
             })
             .collect();
         let pr = predict_sweep(&p, &pts);
         assert!(pr[9].power_w > pr[0].power_w);
         assert!(pr[9].winding_rise_k > 5.0);
+    }
+
+    fn at(thrust_g: f64, time_s: f64) -> Point {
+        Point {
+            thrust_g,
+            time_frac: 0.0,
+            time_s,
+            tare_time_s: 0.0,
+            measured_current_a: None,
+        }
+    }
+
+    #[test]
+    fn polarisation_relaxes_with_its_time_constant() {
+        let mut p = base();
+        p.set(Param::PolarisationOhm, 0.05);
+        p.set(Param::PolarisationTauS, 8.0);
+        // A long hold at one thrust: the drop approaches R1·I, and after τ it is 1 − e⁻¹ of it.
+        let pts: Vec<Point> = (0..=40).map(|k| at(800.0, k as f64)).collect();
+        let pr = predict_sweep(&p, &pts);
+        let i = pr[40].current_a;
+        let drop = |k: usize| 16.8 - pr[k].voltage_v;
+        assert!(
+            (drop(40) - 0.05 * i).abs() < 0.01 * 0.05 * i,
+            "{}",
+            drop(40)
+        );
+        let share_at_tau = drop(8) / drop(40);
+        assert!(
+            (share_at_tau - (1.0 - (-1.0f64).exp())).abs() < 0.05,
+            "{share_at_tau}"
+        );
+        assert!(drop(1) < drop(8));
+    }
+
+    #[test]
+    fn loadcell_drift_counts_from_the_tare() {
+        let mut p = base();
+        p.set(Param::LoadcellRateGPerS, 0.5);
+        p.set(Param::LoadcellTauS, 50.0);
+        let drift = |t: f64| 0.5 * 50.0 * (1.0 - (-t / 50.0f64).exp());
+        // Same reading at 30 s after a tare at 0 s and at 130 s after a tare at 100 s: the true
+        // thrust is the reading less the drift since the tare.
+        let a = predict_sweep(&p, &[at(500.0, 30.0)])[0];
+        let b = predict_sweep(
+            &p,
+            &[Point {
+                tare_time_s: 100.0,
+                ..at(500.0, 130.0)
+            }],
+        )[0];
+        assert!((a.thrust_true_g - (500.0 - drift(30.0))).abs() < 1e-9);
+        assert!((b.thrust_true_g - (500.0 - (drift(130.0) - drift(100.0)))).abs() < 1e-9);
+        assert!(b.thrust_true_g > a.thrust_true_g);
+    }
+
+    #[test]
+    fn measured_current_drives_the_supply_not_the_power() {
+        let mut p = base();
+        p.set(Param::SourceResistanceOhm, 0.1);
+        let free = predict_sweep(&p, &[at(800.0, 0.0)])[0];
+        let driven = predict_sweep(
+            &p,
+            &[Point {
+                measured_current_a: Some(30.0),
+                ..at(800.0, 0.0)
+            }],
+        )[0];
+        assert!((driven.voltage_v - (16.8 - 0.1 * 30.0)).abs() < 1e-9);
+        assert!((driven.power_w - free.power_w).abs() < 1e-9);
     }
 
     #[test]

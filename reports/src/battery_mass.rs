@@ -180,18 +180,20 @@ impl Draw for BatteryMassFigure {
                 });
         }
 
-        chart
-            .draw_series(LineSeries::new(
-                render::thin(
-                    &self
-                        .curve
-                        .iter()
-                        .map(|p| (p.battery_mass_kg, p.endurance_min))
-                        .collect::<Vec<_>>(),
-                    render::CURVE_POINTS,
-                ),
-                colour::BLUE.stroke_width(3),
-            ))?
+        render::curve(
+            &chart,
+            &render::thin(
+                &self
+                    .curve
+                    .iter()
+                    .map(|p| (p.battery_mass_kg, p.endurance_min))
+                    .collect::<Vec<_>>(),
+                render::CURVE_POINTS,
+            ),
+            colour::BLUE.stroke_width(3),
+            None,
+        )?;
+        render::legend_entry(&mut chart)?
             .label(format!(
                 "t_E at e_D = {} Wh/kg (eq. 4)",
                 num(self.energy_density_wh_per_kg, 0)

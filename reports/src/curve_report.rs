@@ -2,22 +2,14 @@
 //! measured steps and the thrust limit) and `report.html`. Fig. 4–7 need the platform's
 //! structure mass and avionics power and are left out.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use estimator::Payload;
 use estimator::file::ParamsFile;
 use import::Table;
 
+use crate::session::{nominal_sweep, parameters_provenance, params_path};
 use crate::{LimitMarker, ReportError, ReportFiles, ReportInput, Sweep};
-
-/// The parameter file of a session folder, or the given file.
-fn params_path(input: &Path) -> PathBuf {
-    if input.is_dir() {
-        input.join("params.toml")
-    } else {
-        input.to_owned()
-    }
-}
 
 /// Writes Fig. 3 and `report.html` for `input` (a session folder or a `params.toml`) into
 /// `output`. The measured steps come from `sweep`, else the session's `sweep.csv`, else the
@@ -31,29 +23,8 @@ pub fn write_curve_report(
     let params_path = params_path(input);
     let file = ParamsFile::load(&params_path)?;
     let params = file.to_params()?;
-    let sweep_path = sweep.map(Path::to_owned).or_else(|| {
-        let in_session = input
-            .is_dir()
-            .then(|| input.join("sweep.csv"))
-            .filter(|p| p.is_file());
-        let recorded = Path::new(&file.provenance.input_file);
-        let beside = params_path.parent().map(|d| d.join(recorded));
-        [in_session, Some(recorded.to_owned()), beside]
-            .into_iter()
-            .flatten()
-            .find(|p| p.is_file())
-    });
-    let mut provenance = vec![(
-        "parameters".to_owned(),
-        format!(
-            "{} (written {} by {}; fitted from {}, SHA-256 {})",
-            params_path.display(),
-            file.provenance.created,
-            file.provenance.tool,
-            file.provenance.input_file,
-            file.provenance.input_sha256
-        ),
-    )];
+    let sweep_path = nominal_sweep(input, sweep, &params_path, &file);
+    let mut provenance = vec![parameters_provenance(&params_path, &file)];
     let sweep = match &sweep_path {
         Some(path) => {
             let (t, bytes) = Table::read(path)?;

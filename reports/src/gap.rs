@@ -257,28 +257,26 @@ impl Draw for GapPhaseFigure {
     }
 }
 
-/// Writes both gap figures (SVG and PNG) into `dir`, rendering everything before writing.
+/// Writes both gap figures (SVG and PNG) into `dir`, rendering everything before writing; the
+/// folder is built aside and renamed into place (see [`crate::write_report`]).
 pub fn write_gap_figures(
     voltage: &GapVoltageFigure,
     phases: &GapPhaseFigure,
     dir: &std::path::Path,
 ) -> Result<Vec<std::path::PathBuf>, crate::ReportError> {
+    let staged = outfile::StagedDir::owning(dir, crate::is_report_file)?;
     let rendered = [
         (voltage.stem(), render::svg(voltage)?, render::png(voltage)?),
         (phases.stem(), render::svg(phases)?, render::png(phases)?),
     ];
-    std::fs::create_dir_all(dir).map_err(|source| crate::ReportError::Io {
-        path: dir.to_path_buf(),
-        source,
-    })?;
     let mut out = Vec::new();
     for (stem, svg, png) in rendered {
-        let s = dir.join(format!("{stem}.svg"));
-        let p = dir.join(format!("{stem}.png"));
-        render::write_atomic(&s, svg.as_bytes())?;
-        render::write_atomic(&p, &png)?;
-        out.push(s);
-        out.push(p);
+        let (s, p) = (format!("{stem}.svg"), format!("{stem}.png"));
+        render::write_atomic(&staged.path().join(&s), svg.as_bytes())?;
+        render::write_atomic(&staged.path().join(&p), &png)?;
+        out.push(dir.join(s));
+        out.push(dir.join(p));
     }
+    staged.commit()?;
     Ok(out)
 }

@@ -28,8 +28,8 @@
 //! ```
 //!
 //! Invariants: the library never prints; figures are written only after everything has been
-//! computed and rendered, each through a temporary file and a rename; the HTML report refers to
-//! nothing outside itself.
+//! computed and rendered, each through a temporary file and a rename, and a report's folder is
+//! built aside and renamed into place whole; the HTML report refers to nothing outside itself.
 //!
 //! [`Model`]: estimator::Model
 
@@ -44,6 +44,7 @@ mod html;
 mod paper_figures;
 mod payload;
 mod render;
+pub mod replay;
 mod report;
 pub mod rig_gap;
 pub mod session;
@@ -60,7 +61,7 @@ pub use paper_figures::{FIG6_PAYLOAD_POWERS_W, paper_figures};
 pub use payload::{FlightComparison, MeasuredFlight, PayloadFigure, PayloadSeries};
 pub use report::{
     Comparison, HTML_FILE, MissionInput, PayloadStudy, ReportFiles, ReportInput, Sweep, figures,
-    write_report,
+    is_report_file, write_report,
 };
 pub use thrust_curve::{LimitMarker, MeasuredStep, ResidualSummary, ThrustCurveFigure};
 pub use timeline::{TimelineFigure, TimelineSegment};

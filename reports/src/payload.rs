@@ -317,24 +317,17 @@ impl Draw for PayloadFigure {
             let c = colour::series(self.battery_index(&s.battery.name));
             let style = c.stroke_width(3);
             let label = format!("{}, p_P = {} W", s.battery.name, num(s.payload_power_w, 1));
+            let points = render::thin(&s.points, render::CURVE_POINTS);
             if s.payload_power_w > 0.0 {
-                chart
-                    .draw_series(DashedLineSeries::new(
-                        render::thin(&s.points, render::CURVE_POINTS),
-                        12,
-                        6,
-                        style,
-                    ))?
+                render::curve(&chart, &points, style, Some((12.0, 6.0)))?;
+                render::legend_entry(&mut chart)?
                     .label(label)
                     .legend(move |(x, y)| {
                         DashedPathElement::new(vec![(x, y), (x + 24, y)], 8, 4, c.stroke_width(3))
                     });
             } else {
-                chart
-                    .draw_series(LineSeries::new(
-                        render::thin(&s.points, render::CURVE_POINTS),
-                        style,
-                    ))?
+                render::curve(&chart, &points, style, None)?;
+                render::legend_entry(&mut chart)?
                     .label(label)
                     .legend(move |(x, y)| {
                         PathElement::new(vec![(x, y), (x + 24, y)], c.stroke_width(3))

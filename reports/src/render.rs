@@ -5,7 +5,9 @@ use std::path::Path;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
-use plotters_backend::DrawingErrorKind;
+use plotters_backend::{
+    BackendColor, BackendCoord, BackendStyle, BackendTextStyle, DrawingErrorKind,
+};
 
 use crate::ReportError;
 use crate::font::{FONT_FAMILY, ensure_registered};
@@ -184,7 +186,7 @@ pub(crate) fn svg<F: Draw>(figure: &F) -> Result<String, ReportError> {
         figure.draw(&root).map_err(err())?;
         root.present().map_err(err())?;
     }
-    Ok(out)
+    Ok(decode_fine_svg(&out))
 }
 
 /// Renders a figure as an 8-bit RGB PNG.
@@ -193,7 +195,7 @@ pub(crate) fn png<F: Draw>(figure: &F) -> Result<Vec<u8>, ReportError> {
     let (w, h) = figure.size_px();
     let mut rgb = vec![0u8; w as usize * h as usize * 3];
     {
-        let root = BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area();
+        let root = Smooth(BitMapBackend::with_buffer(&mut rgb, (w, h))).into_drawing_area();
         let err = || draw_error(figure.stem(), "PNG");
         root.fill(&WHITE).map_err(err())?;
         figure.draw(&root).map_err(err())?;
@@ -224,6 +226,459 @@ pub(crate) fn png<F: Draw>(figure: &F) -> Result<Vec<u8>, ReportError> {
 /// half-written file or a stray temporary one.
 pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), ReportError> {
     outfile::write_atomic(path, bytes).map_err(ReportError::from)
+}
+
+// --- Curves with sub-pixel precision -------------------------------------------------------
+//
+// plotters hands its backends whole-pixel coordinates, so a smooth curve becomes a staircase
+// of one-pixel steps. [`curve`] computes a curve's pixel positions as floats and passes them
+// through plotters encoded as "fine" coordinates (an offset far outside any figure, in
+// 1/[`FINE`] px units): the SVG text is decoded back to decimals ([`decode_fine_svg`]), and the
+// PNG backend ([`Smooth`]) draws such paths itself, anti-aliased.
+
+/// Sub-pixel units per pixel of an encoded coordinate.
+const FINE: f64 = 64.0;
+/// Offset that marks an encoded (sub-pixel) backend coordinate; ordinary coordinates stay
+/// within ±1e6 ([`Axis`] clamps them), far below half of it.
+const FINE_OFFSET: i32 = 1 << 28;
+
+fn encode(px: f64) -> i32 {
+    let px = if px.is_finite() {
+        px.clamp(-1e5, 1e5)
+    } else {
+        0.0
+    };
+    FINE_OFFSET + (px * FINE).round() as i32
+}
+
+fn decode(c: i32) -> Option<f64> {
+    (c > FINE_OFFSET / 2).then(|| f64::from(c - FINE_OFFSET) / FINE)
+}
+
+/// Pixel coordinates (floats) to encoded backend coordinates.
+#[derive(Debug, Clone, Copy)]
+struct FinePx;
+
+impl plotters::coord::CoordTranslate for FinePx {
+    type From = (f64, f64);
+
+    fn translate(&self, p: &(f64, f64)) -> BackendCoord {
+        (encode(p.0), encode(p.1))
+    }
+}
+
+/// Splits a polyline (pixels) into dashes of `on` px separated by gaps of `off` px.
+fn dashes(points: &[(f64, f64)], on: f64, off: f64) -> Vec<Vec<(f64, f64)>> {
+    let mut out = Vec::new();
+    let Some(&first) = points.first() else {
+        return out;
+    };
+    if !(on > 0.0 && off >= 0.0) {
+        return vec![points.to_vec()];
+    }
+    let (mut solid, mut left) = (true, on);
+    let mut current = vec![first];
+    for w in points.windows(2) {
+        let (mut a, b) = (w[0], w[1]);
+        let mut d = (b.0 - a.0).hypot(b.1 - a.1);
+        while d > left {
+            let t = left / d;
+            let m = (a.0 + (b.0 - a.0) * t, a.1 + (b.1 - a.1) * t);
+            if solid {
+                if current.last() != Some(&m) {
+                    current.push(m);
+                }
+                if current.len() > 1 {
+                    out.push(std::mem::take(&mut current));
+                }
+            } else {
+                current = vec![m];
+            }
+            solid = !solid;
+            d -= left;
+            left = if solid { on } else { off };
+            a = m;
+        }
+        left -= d;
+        if solid {
+            current.push(b);
+        }
+    }
+    if solid && current.len() > 1 {
+        out.push(current);
+    }
+    out
+}
+
+/// Draws a curve through `points` (data coordinates of `chart`) with sub-pixel precision,
+/// solid or dashed (`dash`: on and off lengths, px). Register its legend entry separately
+/// (see [`legend_entry`]).
+pub(crate) fn curve<DB: DrawingBackend>(
+    chart: &ChartContext<'_, DB, Cartesian2d<Axis, Axis>>,
+    points: &[(f64, f64)],
+    style: ShapeStyle,
+    dash: Option<(f64, f64)>,
+) -> DrawResult<DB> {
+    let area = chart.plotting_area();
+    let (xr, yr) = area.get_pixel_range();
+    // as plotters' chart builder maps: x from the left edge to the last column, y from the
+    // last row up to the top edge
+    let (x0, x1) = (f64::from(xr.start), f64::from(xr.end - 1));
+    let (y0, y1) = (f64::from(yr.end - 1), f64::from(yr.start));
+    let (xa, ya) = (chart.x_range(), chart.y_range());
+    let pixels: Vec<(f64, f64)> = points
+        .iter()
+        .map(|&(x, y)| {
+            (
+                x0 + (x1 - x0) * (x - xa.start) / (xa.end - xa.start),
+                y0 + (y1 - y0) * (y - ya.start) / (ya.end - ya.start),
+            )
+        })
+        .filter(|(x, y)| x.is_finite() && y.is_finite())
+        .collect();
+    let fine = area.strip_coord_spec().apply_coord_spec(FinePx);
+    let inside = clip(&pixels, (x0, x1.max(x0)), (y1.min(y0), y0.max(y1)));
+    for piece in inside {
+        let pieces = match dash {
+            None => vec![piece],
+            Some((on, off)) => dashes(&piece, on, off),
+        };
+        for p in pieces {
+            fine.draw(&FinePath { points: p, style })?;
+        }
+    }
+    Ok(())
+}
+
+/// Maps pixel coordinates without plotters' clamping to the drawing area (which would fold
+/// encoded coordinates onto its corner); [`curve`] clips the path itself.
+struct Unclipped;
+
+impl plotters::element::CoordMapper for Unclipped {
+    type Output = BackendCoord;
+
+    fn map<CT: plotters::coord::CoordTranslate>(
+        coord: &CT,
+        from: &CT::From,
+        _: &plotters::drawing::Rect,
+    ) -> BackendCoord {
+        coord.translate(from)
+    }
+}
+
+/// A polyline in pixel coordinates, drawn through [`FinePx`].
+struct FinePath {
+    points: Vec<(f64, f64)>,
+    style: ShapeStyle,
+}
+
+impl<'a> plotters::element::PointCollection<'a, (f64, f64), Unclipped> for &'a FinePath {
+    type Point = &'a (f64, f64);
+    type IntoIter = &'a [(f64, f64)];
+
+    fn point_iter(self) -> Self::IntoIter {
+        &self.points
+    }
+}
+
+impl<DB: DrawingBackend> plotters::element::Drawable<DB, Unclipped> for FinePath {
+    fn draw<I: Iterator<Item = BackendCoord>>(
+        &self,
+        points: I,
+        backend: &mut DB,
+        _: (u32, u32),
+    ) -> Result<(), DrawingErrorKind<DB::ErrorType>> {
+        backend.draw_path(points, &self.style)
+    }
+}
+
+/// The parts of a polyline inside the rectangle `x` × `y` (Liang–Barsky on each segment).
+fn clip(points: &[(f64, f64)], x: (f64, f64), y: (f64, f64)) -> Vec<Vec<(f64, f64)>> {
+    let inside = |p: (f64, f64)| p.0 >= x.0 && p.0 <= x.1 && p.1 >= y.0 && p.1 <= y.1;
+    if points.len() == 1 {
+        return if inside(points[0]) {
+            vec![points.to_vec()]
+        } else {
+            Vec::new()
+        };
+    }
+    let mut out: Vec<Vec<(f64, f64)>> = Vec::new();
+    let mut current: Vec<(f64, f64)> = Vec::new();
+    for w in points.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+        let (mut t0, mut t1) = (0.0_f64, 1.0_f64);
+        let mut visible = true;
+        for (p, q) in [
+            (-dx, a.0 - x.0),
+            (dx, x.1 - a.0),
+            (-dy, a.1 - y.0),
+            (dy, y.1 - a.1),
+        ] {
+            if p == 0.0 {
+                if q < 0.0 {
+                    visible = false;
+                }
+            } else {
+                let r = q / p;
+                if p < 0.0 {
+                    t0 = t0.max(r);
+                } else {
+                    t1 = t1.min(r);
+                }
+            }
+        }
+        if !visible || t0 > t1 {
+            if current.len() > 1 {
+                out.push(std::mem::take(&mut current));
+            }
+            current.clear();
+            continue;
+        }
+        let s = (a.0 + t0 * dx, a.1 + t0 * dy);
+        let e = (a.0 + t1 * dx, a.1 + t1 * dy);
+        if current.last() != Some(&s) {
+            if current.len() > 1 {
+                out.push(std::mem::take(&mut current));
+            }
+            current = vec![s];
+        }
+        current.push(e);
+        if t1 < 1.0 {
+            out.push(std::mem::take(&mut current));
+        }
+    }
+    if current.len() > 1 {
+        out.push(current);
+    }
+    out
+}
+
+/// A legend entry for a series drawn with [`curve`] (an empty series carrying the label).
+pub(crate) fn legend_entry<'a, 'b, DB: DrawingBackend + 'a>(
+    chart: &'b mut ChartContext<'a, DB, Cartesian2d<Axis, Axis>>,
+) -> Result<&'b mut plotters::chart::SeriesAnno<'a, DB>, DrawingAreaErrorKind<DB::ErrorType>> {
+    chart.draw_series(std::iter::empty::<PathElement<(f64, f64)>>())
+}
+
+/// The SVG text with encoded coordinates written as decimals (two places, trailing zeros
+/// trimmed).
+fn decode_fine_svg(svg: &str) -> String {
+    let mut out = String::with_capacity(svg.len());
+    let mut rest = svg;
+    while let Some(i) = rest.find(|c: char| c.is_ascii_digit() || c == '-') {
+        out.push_str(&rest[..i]);
+        rest = &rest[i..];
+        let len = rest
+            .char_indices()
+            .skip(1)
+            .find(|(_, c)| !c.is_ascii_digit())
+            .map_or(rest.len(), |(j, _)| j);
+        let token = &rest[..len];
+        match token.parse::<i32>().ok().and_then(decode) {
+            // only whole tokens: not part of a decimal or a name
+            Some(v) if !out.ends_with(|c: char| c.is_ascii_alphanumeric() || c == '.') => {
+                let t = format!("{v:.2}");
+                let t = t.trim_end_matches('0').trim_end_matches('.');
+                out.push_str(if t == "-0" { "0" } else { t });
+            }
+            _ => out.push_str(token),
+        }
+        rest = &rest[len..];
+    }
+    out.push_str(rest);
+    out
+}
+
+/// A raster backend that draws encoded (sub-pixel) paths itself, anti-aliased; everything
+/// else goes to the wrapped backend unchanged.
+struct Smooth<DB>(DB);
+
+impl<DB: DrawingBackend> Smooth<DB> {
+    /// An anti-aliased polyline: each pixel's coverage by a stroke of the style's width around
+    /// the path (its largest over the segments, so joints are not drawn twice), blended once.
+    fn smooth_path(
+        &mut self,
+        pts: &[(f64, f64)],
+        colour: BackendColor,
+        width: f64,
+    ) -> Result<(), DrawingErrorKind<DB::ErrorType>> {
+        let (w, h) = self.0.get_size();
+        let r = (width / 2.0).max(0.5);
+        let reach = r + 1.0;
+        let fold = |f: fn(f64, f64) -> f64, init: f64, c: fn(&(f64, f64)) -> f64| {
+            pts.iter().map(c).fold(init, f)
+        };
+        let lo_x = (fold(f64::min, f64::INFINITY, |p| p.0) - reach)
+            .floor()
+            .max(0.0);
+        let hi_x = (fold(f64::max, f64::NEG_INFINITY, |p| p.0) + reach)
+            .ceil()
+            .min(f64::from(w) - 1.0);
+        let lo_y = (fold(f64::min, f64::INFINITY, |p| p.1) - reach)
+            .floor()
+            .max(0.0);
+        let hi_y = (fold(f64::max, f64::NEG_INFINITY, |p| p.1) + reach)
+            .ceil()
+            .min(f64::from(h) - 1.0);
+        if !(lo_x <= hi_x && lo_y <= hi_y) {
+            return Ok(());
+        }
+        let (bw, bh) = ((hi_x - lo_x) as usize + 1, (hi_y - lo_y) as usize + 1);
+        let mut cover = vec![0f32; bw * bh];
+        let segments: Vec<((f64, f64), (f64, f64))> = if pts.len() == 1 {
+            vec![(pts[0], pts[0])]
+        } else {
+            pts.windows(2).map(|s| (s[0], s[1])).collect()
+        };
+        for (a, b) in segments {
+            let sx0 = ((a.0.min(b.0) - reach).floor().max(lo_x) - lo_x) as usize;
+            let sx1 = ((a.0.max(b.0) + reach).ceil().min(hi_x) - lo_x) as usize;
+            let sy0 = ((a.1.min(b.1) - reach).floor().max(lo_y) - lo_y) as usize;
+            let sy1 = ((a.1.max(b.1) + reach).ceil().min(hi_y) - lo_y) as usize;
+            let (dx, dy) = (b.0 - a.0, b.1 - a.1);
+            let len2 = dx * dx + dy * dy;
+            for iy in sy0..=sy1 {
+                for ix in sx0..=sx1 {
+                    let (px, py) = (lo_x + ix as f64, lo_y + iy as f64);
+                    let t = if len2 > 0.0 {
+                        (((px - a.0) * dx + (py - a.1) * dy) / len2).clamp(0.0, 1.0)
+                    } else {
+                        0.0
+                    };
+                    let d = (px - a.0 - t * dx).hypot(py - a.1 - t * dy);
+                    let c = (r + 0.5 - d).clamp(0.0, 1.0) as f32;
+                    let cell = &mut cover[iy * bw + ix];
+                    if c > *cell {
+                        *cell = c;
+                    }
+                }
+            }
+        }
+        for iy in 0..bh {
+            for ix in 0..bw {
+                let c = cover[iy * bw + ix];
+                if c > 0.0 {
+                    self.0.draw_pixel(
+                        ((lo_x as usize + ix) as i32, (lo_y as usize + iy) as i32),
+                        BackendColor {
+                            alpha: colour.alpha * f64::from(c),
+                            rgb: colour.rgb,
+                        },
+                    )?;
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+impl<DB: DrawingBackend> DrawingBackend for Smooth<DB> {
+    type ErrorType = DB::ErrorType;
+
+    fn get_size(&self) -> (u32, u32) {
+        self.0.get_size()
+    }
+
+    fn ensure_prepared(&mut self) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.0.ensure_prepared()
+    }
+
+    fn present(&mut self) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.0.present()
+    }
+
+    fn draw_pixel(
+        &mut self,
+        point: BackendCoord,
+        color: BackendColor,
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.0.draw_pixel(point, color)
+    }
+
+    fn draw_line<S: BackendStyle>(
+        &mut self,
+        from: BackendCoord,
+        to: BackendCoord,
+        style: &S,
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.0.draw_line(from, to, style)
+    }
+
+    fn draw_rect<S: BackendStyle>(
+        &mut self,
+        upper_left: BackendCoord,
+        bottom_right: BackendCoord,
+        style: &S,
+        fill: bool,
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.0.draw_rect(upper_left, bottom_right, style, fill)
+    }
+
+    fn draw_path<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(
+        &mut self,
+        path: I,
+        style: &S,
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        let path: Vec<BackendCoord> = path.into_iter().collect();
+        let fine: Option<Vec<(f64, f64)>> = path
+            .iter()
+            .map(|&(x, y)| Some((decode(x)?, decode(y)?)))
+            .collect();
+        match fine {
+            Some(pts) if !pts.is_empty() => {
+                if style.color().alpha == 0.0 {
+                    return Ok(());
+                }
+                self.smooth_path(&pts, style.color(), f64::from(style.stroke_width()))
+            }
+            _ => self.0.draw_path(path, style),
+        }
+    }
+
+    fn draw_circle<S: BackendStyle>(
+        &mut self,
+        center: BackendCoord,
+        radius: u32,
+        style: &S,
+        fill: bool,
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.0.draw_circle(center, radius, style, fill)
+    }
+
+    fn fill_polygon<S: BackendStyle, I: IntoIterator<Item = BackendCoord>>(
+        &mut self,
+        vert: I,
+        style: &S,
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.0.fill_polygon(vert, style)
+    }
+
+    fn draw_text<TStyle: BackendTextStyle>(
+        &mut self,
+        text: &str,
+        style: &TStyle,
+        pos: BackendCoord,
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.0.draw_text(text, style, pos)
+    }
+
+    fn estimate_text_size<TStyle: BackendTextStyle>(
+        &self,
+        text: &str,
+        style: &TStyle,
+    ) -> Result<(u32, u32), DrawingErrorKind<Self::ErrorType>> {
+        self.0.estimate_text_size(text, style)
+    }
+
+    fn blit_bitmap(
+        &mut self,
+        pos: BackendCoord,
+        size: (u32, u32),
+        src: &[u8],
+    ) -> Result<(), DrawingErrorKind<Self::ErrorType>> {
+        self.0.blit_bitmap(pos, size, src)
+    }
 }
 
 /// Colours of the figures (colour-blind-safe, after Okabe and Ito).
@@ -383,8 +838,9 @@ pub(crate) fn thin(points: &[(f64, f64)], max: usize) -> Vec<(f64, f64)> {
         .collect()
 }
 
-/// Points drawn along a smooth curve (see [`thin`]).
-pub(crate) const CURVE_POINTS: usize = 48;
+/// Points drawn along a smooth curve (see [`thin`]): drawn with sub-pixel precision
+/// ([`curve`]), a few hundred points give a smooth line.
+pub(crate) const CURVE_POINTS: usize = 300;
 
 /// Horizontal anchor for a label beside a point at `fraction` (0 = left, 1 = right) of the plot
 /// width, so that the label stays inside the plot.
@@ -476,5 +932,87 @@ mod tests {
         assert_eq!(padded(0.0, 10.0, 0.1), (-1.0, 11.0));
         let (lo, hi) = padded(3.0, 3.0, 0.1);
         assert!(lo < 3.0 && hi > 3.0);
+    }
+
+    #[test]
+    fn fine_coordinates_round_trip_and_svg_decodes_only_them() {
+        for px in [0.0, 12.34375, -3.5, 799.984375] {
+            assert_eq!(decode(encode(px)), Some(px));
+        }
+        assert_eq!(decode(640), None);
+        assert_eq!(decode(-1_000_000), None);
+        let a = encode(12.5);
+        let b = encode(300.0);
+        let svg = format!(
+            r#"<polyline stroke-width="3" points="{a},{b} 40,50 "/><text x="12">268435456</text>"#
+        );
+        let d = decode_fine_svg(&svg);
+        assert!(d.contains(r#"points="12.5,300 40,50 ""#), "{d}");
+        assert!(d.contains(r#"stroke-width="3""#), "{d}");
+    }
+
+    #[test]
+    fn dashes_alternate_along_the_path() {
+        let d = dashes(&[(0.0, 0.0), (10.0, 0.0), (10.0, 10.0)], 4.0, 2.0);
+        // 20 px of path: on 0-4, off 4-6, on 6-10, off 10-12 (round the corner), on 12-16,
+        // off 16-18, on 18-20
+        assert_eq!(d.len(), 4);
+        assert_eq!(d[0], vec![(0.0, 0.0), (4.0, 0.0)]);
+        assert_eq!(d[1], vec![(6.0, 0.0), (10.0, 0.0)]);
+        assert_eq!(d[2], vec![(10.0, 2.0), (10.0, 6.0)]);
+        assert_eq!(d[3], vec![(10.0, 8.0), (10.0, 10.0)]);
+    }
+
+    #[test]
+    fn a_nearly_flat_curve_is_drawn_without_steps() {
+        // a line rising 3 px over 300 px: drawn anti-aliased, the ink's centre of mass in
+        // every column follows the line to a fraction of a pixel (a whole-pixel line jumps by
+        // one pixel at a time, off by up to half a pixel)
+        let (w, h) = (320u32, 40u32);
+        let mut rgb = vec![255u8; (w * h * 3) as usize];
+        {
+            let mut b = Smooth(BitMapBackend::with_buffer(&mut rgb, (w, h)));
+            let path = [(10.0, 20.0), (310.0, 23.0)];
+            b.draw_path(
+                path.iter().map(|&(x, y)| (encode(x), encode(y))),
+                &plotters::style::Color::stroke_width(&BLACK, 3),
+            )
+            .unwrap();
+            b.present().unwrap();
+        }
+        let mut worst: f64 = 0.0;
+        for x in 20..300usize {
+            let (mut ink, mut moment) = (0.0, 0.0);
+            for y in 0..h as usize {
+                let v = 1.0 - f64::from(rgb[(y * w as usize + x) * 3]) / 255.0;
+                ink += v;
+                moment += v * y as f64;
+            }
+            let centre = moment / ink;
+            let want = 20.0 + 3.0 * (x as f64 - 10.0) / 300.0;
+            worst = worst.max((centre - want).abs());
+        }
+        assert!(worst < 0.15, "the stroke strays {worst} px from the line");
+    }
+
+    #[test]
+    fn curves_are_clipped_to_the_plot() {
+        let r = clip(
+            &[(-10.0, 5.0), (5.0, 5.0), (20.0, 5.0)],
+            (0.0, 10.0),
+            (0.0, 10.0),
+        );
+        assert_eq!(r, vec![vec![(0.0, 5.0), (5.0, 5.0), (10.0, 5.0)]]);
+        // leaving and coming back gives two pieces
+        let r = clip(
+            &[(1.0, 1.0), (1.0, 20.0), (2.0, 20.0), (2.0, 1.0)],
+            (0.0, 10.0),
+            (0.0, 10.0),
+        );
+        assert_eq!(
+            r,
+            vec![vec![(1.0, 1.0), (1.0, 10.0)], vec![(2.0, 10.0), (2.0, 1.0)]]
+        );
+        assert!(clip(&[(20.0, 20.0), (30.0, 30.0)], (0.0, 10.0), (0.0, 10.0)).is_empty());
     }
 }

@@ -200,28 +200,44 @@ pub fn figures(input: &ReportInput) -> Result<Vec<Figure>, ReportError> {
     Ok(out)
 }
 
+/// Whether a file name is one a report writes (a figure's SVG or PNG, `report.html`): an
+/// output folder holding only such files is an earlier report and may be replaced.
+pub fn is_report_file(name: &str) -> bool {
+    name == HTML_FILE || name.ends_with(".svg") || name.ends_with(".png")
+}
+
 /// Draws every figure `input` supports as SVG and PNG and writes them, with a self-contained
-/// `report.html` (figures inline as SVG, numbers in tables, provenance), into `out_dir`, which is
-/// created if needed. Everything is computed and rendered before the first file is written.
+/// `report.html` (figures inline as SVG, numbers in tables, provenance), into `out_dir`.
+/// Everything is computed and rendered before the first file is written; the folder is built
+/// aside ([`outfile::StagedDir`]) and renamed into place, so it appears whole or not at all
+/// (an interrupted run leaves no partial folder; the next run removes its hidden staging
+/// folder). An existing `out_dir` is replaced only if it holds nothing but an earlier report's
+/// files ([`is_report_file`]).
 pub fn write_report(input: &ReportInput, out_dir: &Path) -> Result<ReportFiles, ReportError> {
+    // A folder that cannot be replaced fails before the work.
+    let staged = outfile::StagedDir::owning(out_dir, is_report_file)?;
     let figures = figures(input)?;
     let rendered = figures
         .iter()
         .map(RenderedFigure::render)
         .collect::<Result<Vec<_>, _>>()?;
     let page = html::page(input, &figures, &rendered);
-    std::fs::create_dir_all(out_dir).map_err(|source| ReportError::Io {
-        path: out_dir.to_owned(),
-        source,
-    })?;
     let written = rendered
         .iter()
-        .map(|r| r.write(out_dir))
+        .map(|r| r.write(staged.path()))
         .collect::<Result<Vec<_>, _>>()?;
-    let html_path = out_dir.join(HTML_FILE);
-    crate::render::write_atomic(&html_path, page.as_bytes())?;
+    crate::render::write_atomic(&staged.path().join(HTML_FILE), page.as_bytes())?;
+    staged.commit()?;
+    let moved = |p: &Path| out_dir.join(p.file_name().unwrap_or_default());
     Ok(ReportFiles {
-        figures: written,
-        html: html_path,
+        figures: written
+            .into_iter()
+            .map(|w| WrittenFigure {
+                svg: moved(&w.svg),
+                png: moved(&w.png),
+                ..w
+            })
+            .collect(),
+        html: out_dir.join(HTML_FILE),
     })
 }

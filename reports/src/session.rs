@@ -110,12 +110,57 @@ impl SessionPlatform {
 }
 
 /// The parameter file of a session folder, or the given file.
-fn params_path(input: &Path) -> PathBuf {
+pub(crate) fn params_path(input: &Path) -> PathBuf {
     if input.is_dir() {
         input.join("params.toml")
     } else {
         input.to_owned()
     }
+}
+
+/// A file of the session folder `input`, if `input` is a folder and the file is there.
+fn in_session(input: &Path, name: &str) -> Option<PathBuf> {
+    input
+        .is_dir()
+        .then(|| input.join(name))
+        .filter(|p| p.is_file())
+}
+
+/// The nominal sweep that goes with the parameters: `given`, else the session's
+/// `sweep.csv`, else the params file's `provenance.input_file` (as recorded, or beside the
+/// params file).
+pub(crate) fn nominal_sweep(
+    input: &Path,
+    given: Option<&Path>,
+    params: &Path,
+    file: &ParamsFile,
+) -> Option<PathBuf> {
+    let recorded = Path::new(&file.provenance.input_file);
+    let beside = params.parent().map(|d| d.join(recorded));
+    given
+        .map(Path::to_owned)
+        .or_else(|| in_session(input, "sweep.csv"))
+        .or_else(|| {
+            [Some(recorded.to_owned()), beside]
+                .into_iter()
+                .flatten()
+                .find(|p| p.is_file())
+        })
+}
+
+/// The report's provenance line of the parameter file.
+pub(crate) fn parameters_provenance(params_path: &Path, file: &ParamsFile) -> (String, String) {
+    (
+        "parameters".to_owned(),
+        format!(
+            "{} (written {} by {}; fitted from {}, SHA-256 {})",
+            params_path.display(),
+            file.provenance.created,
+            file.provenance.tool,
+            file.provenance.input_file,
+            file.provenance.input_sha256
+        ),
+    )
 }
 
 /// The nominal sweep and the session's limit sweep that go with the parameters.
@@ -124,22 +169,10 @@ fn locate(
     params: &Path,
     file: &ParamsFile,
 ) -> (Option<PathBuf>, Option<PathBuf>) {
-    let session = r.input.is_dir().then_some(r.input.as_path());
-    let in_session = |name: &str| session.map(|d| d.join(name)).filter(|p| p.is_file());
-    let from_provenance = || {
-        let recorded = Path::new(&file.provenance.input_file);
-        let beside = params.parent().map(|d| d.join(recorded));
-        [Some(recorded.to_owned()), beside]
-            .into_iter()
-            .flatten()
-            .find(|p| p.is_file())
-    };
-    let sweep = r
-        .sweep
-        .clone()
-        .or_else(|| in_session("sweep.csv"))
-        .or_else(from_provenance);
-    (sweep, in_session("limit.csv"))
+    (
+        nominal_sweep(&r.input, r.sweep.as_deref(), params, file),
+        in_session(&r.input, "limit.csv"),
+    )
 }
 
 fn read(path: &Path) -> Result<(Table, String), ReportError> {
@@ -194,17 +227,7 @@ pub fn write_session_report(r: &SessionReport) -> Result<ReportFiles, ReportErro
     };
     let mut model = params.model(structure_mass_kg, avionics_power_w);
     let rotors = f64::from(model.platform.rotor_count);
-    let mut provenance = vec![(
-        "parameters".to_owned(),
-        format!(
-            "{} (written {} by {}; fitted from {}, SHA-256 {})",
-            params_path.display(),
-            file.provenance.created,
-            file.provenance.tool,
-            file.provenance.input_file,
-            file.provenance.input_sha256
-        ),
-    )];
+    let mut provenance = vec![parameters_provenance(&params_path, &file)];
 
     let mut thrust_limit = params.thrust_limit.map(LimitMarker::from);
     if let Some(l) = r.thrust_limit_kg {

@@ -168,7 +168,9 @@ impl ThrustCurveFigure {
             num(hi, 0)
         );
         if let Some(src) = &self.source {
-            s.push_str(&format!(", {} steps from {src}", self.measured.len()));
+            let n = self.measured.len();
+            let steps = if n == 1 { "step" } else { "steps" };
+            s.push_str(&format!(", {n} {steps} from {src}"));
         }
         if self.measured.len() > MAX_DRAWN_STEPS {
             s.push_str(&format!(
@@ -317,8 +319,8 @@ impl Draw for ThrustCurveFigure {
             Some(v) => format!("fit (degree {}) at {} V", self.curve.degree(), num(v, 1)),
             None => format!("fit (degree {})", self.curve.degree()),
         };
-        chart
-            .draw_series(LineSeries::new(curve, colour::BLUE.stroke_width(3)))?
+        render::curve(&chart, &curve, colour::BLUE.stroke_width(3), None)?;
+        render::legend_entry(&mut chart)?
             .label(fit_label)
             .legend(|(x, y)| {
                 PathElement::new(vec![(x, y), (x + 24, y)], colour::BLUE.stroke_width(3))

@@ -16,7 +16,7 @@
 //! truth.set(Param::SourceResistanceOhm, 0.15);
 //! let run = |name: &str, offset: f64| {
 //!     let pts: Vec<Point> = (0..12)
-//!         .map(|i| Point { thrust_g: 100.0 + offset + 80.0 * i as f64, time_frac: i as f64 / 11.0 })
+//!         .map(|i| Point { thrust_g: 100.0 + offset + 80.0 * i as f64, time_frac: i as f64 / 11.0, time_s: 4.0 * i as f64, tare_time_s: 0.0, measured_current_a: None })
 //!         .collect();
 //!     let pred = predict_sweep(&truth, &pts);
 //!     StandSweep::from_predictions(name, &pts, &pred)

@@ -39,6 +39,7 @@ impl StandSweep {
             .map(|(pt, p)| Observation {
                 thrust_g: pt.thrust_g,
                 time_frac: pt.time_frac,
+                time_s: pt.time_s,
                 power_w: Some(p.power_w),
                 current_a: Some(p.current_a),
                 voltage_v: Some(p.voltage_v),
@@ -51,6 +52,7 @@ impl StandSweep {
                 name: name.to_owned(),
                 steps,
                 open_circuit_v: None,
+                tare_time_s: 0.0,
             },
             meta: (0..points.len())
                 .map(|i| StepMeta {
@@ -75,6 +77,7 @@ impl StandSweep {
                 ),
                 steps: idx.iter().map(|&i| self.sweep.steps[i]).collect(),
                 open_circuit_v: self.sweep.open_circuit_v,
+                tare_time_s: self.sweep.tare_time_s,
             },
             meta: idx.iter().map(|&i| self.meta[i]).collect(),
         }
@@ -119,6 +122,8 @@ pub fn runs_of_log(log: &StandLog) -> Result<Vec<StandSweep>, RigGapError> {
             -1.0
         }
     };
+    let times = step_times(log);
+    let t_log0 = times.as_ref().and_then(|t| t.get(&steps[0].line)).copied();
     let n_runs = bounds.len() - 1;
     let base_name = std::path::Path::new(&log.source_name)
         .file_name()
@@ -128,11 +133,24 @@ pub fn runs_of_log(log: &StandLog) -> Result<Vec<StandSweep>, RigGapError> {
     for k in 0..n_runs {
         let run = &steps[bounds[k]..bounds[k + 1]];
         let t_max = run.iter().map(|s| s.thrust_g).fold(0.0f64, f64::max);
-        let kept: Vec<(usize, &import::stand::Step)> = run
+        let run_max_current = run
             .iter()
-            .enumerate()
-            .filter(|(_, s)| s.thrust_g > IDLE_SHARE * t_max)
-            .collect();
+            .filter_map(|s| s.current_a)
+            .fold(0.0f64, f64::max);
+        // Idle: little thrust, or the run's lowest command with the rotor not turning (a load
+        // cell's drifted zero can read well above 5 % there).
+        let lowest_cmd = run
+            .iter()
+            .filter_map(|s| s.throttle)
+            .fold(f64::INFINITY, f64::min);
+        let idle = |s: &import::stand::Step| {
+            s.thrust_g <= IDLE_SHARE * t_max
+                || (s.throttle.is_some_and(|t| t <= lowest_cmd)
+                    && s.speed_rpm.is_none_or(|r| r <= 0.0)
+                    && s.current_a.is_none_or(|i| i.abs() < 0.02 * run_max_current))
+        };
+        let kept: Vec<(usize, &import::stand::Step)> =
+            run.iter().enumerate().filter(|(_, s)| !idle(s)).collect();
         if kept.len() < 3 {
             continue;
         }
@@ -148,15 +166,29 @@ pub fn runs_of_log(log: &StandLog) -> Result<Vec<StandSweep>, RigGapError> {
             .iter()
             .filter_map(|s| s.throttle)
             .fold(f64::INFINITY, f64::min);
-        let tare_g = run[..first]
+        let tare_step = run[..first]
             .iter()
-            .find(|s| s.throttle.is_some_and(|t| t <= lowest))
-            .map(|s| s.thrust_g)
+            .enumerate()
+            .find(|(_, s)| s.throttle.is_some_and(|t| t <= lowest));
+        let tare_g = tare_step
+            .map(|(_, s)| s.thrust_g)
             // A reading within 1 % of the run's largest thrust is the cell's noise, not a tare
             // shift worth taking off every step.
             .filter(|t| t.abs() > 0.01 * t_max)
             .unwrap_or(0.0);
         let n = kept.len();
+        // The clock: the log's time column at each step's first line (from the log's first
+        // row) when it has one, else the step's index in the log (the thermal, discharge and
+        // drift extensions then count in steps).
+        let clock = |i_in_run: usize| -> f64 {
+            let s = &run[i_in_run];
+            match (times.as_ref().and_then(|t| t.get(&s.line)), t_log0) {
+                (Some(t), Some(t0)) => t - t0,
+                _ => (bounds[k] + i_in_run) as f64,
+            }
+        };
+        // The load cell was zeroed at the tare step, else (no tare taken) at the run's start.
+        let tare_time_s = clock(tare_step.map(|(i, _)| i).unwrap_or(0));
         let mut obs = Vec::with_capacity(n);
         let mut meta = Vec::with_capacity(n);
         for (j, (i, s)) in kept.iter().enumerate() {
@@ -170,6 +202,7 @@ pub fn runs_of_log(log: &StandLog) -> Result<Vec<StandSweep>, RigGapError> {
                 } else {
                     0.0
                 },
+                time_s: clock(*i),
                 power_w: power,
                 current_a: s.current_a,
                 voltage_v: s.voltage_v.filter(|v| *v > 0.0),
@@ -206,6 +239,7 @@ pub fn runs_of_log(log: &StandLog) -> Result<Vec<StandSweep>, RigGapError> {
                 },
                 steps: obs,
                 open_circuit_v,
+                tare_time_s,
             },
             meta,
         });
@@ -217,6 +251,29 @@ pub fn runs_of_log(log: &StandLog) -> Result<Vec<StandSweep>, RigGapError> {
         });
     }
     Ok(out)
+}
+
+/// Time of every source line of a log that has a time column, s; `None` when it has none or a
+/// time cell does not read as a number.
+fn step_times(log: &StandLog) -> Option<std::collections::HashMap<u64, f64>> {
+    let column = log.columns.time.as_ref()?;
+    let table = import::Table::parse(&log.bytes, &log.source_name).ok()?;
+    if !table.has(column) {
+        return None;
+    }
+    let factor = match import::units::split_unit(column).1 {
+        None => 1.0,
+        Some(u) => import::units::factor(import::units::Quantity::Time, u)?,
+    };
+    let mut out = std::collections::HashMap::with_capacity(table.len());
+    for r in 0..table.len() {
+        let t = table.cell_number(r, column).ok()? * factor;
+        if !t.is_finite() {
+            return None;
+        }
+        out.insert(table.line(r), t);
+    }
+    Some(out)
 }
 
 /// The default split when no held-out runs are given: with two or more runs every second run
@@ -245,5 +302,49 @@ pub fn split_default(runs: Vec<StandSweep>) -> (Vec<StandSweep>, Vec<StandSweep>
             vec![r.interleaved(true)],
             "one run: even steps train, odd steps held out (no --holdout given)".into(),
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use import::stand::StandOptions;
+
+    #[test]
+    fn runs_carry_the_log_clock_and_their_tare() {
+        // Two sweeps: the idle row of the second reads a drifted zero well above 5 % of the top
+        // thrust, yet the rotor is stopped at the lowest command, so it is the tare.
+        let csv = "time_s,throttle,thrust_g,voltage_v,current_a,power_w,rpm\n\
+                   0,0,2,12.0,0,0,0\n\
+                   4,0.3,102,11.9,2,23.8,6000\n\
+                   8,0.6,302,11.8,6,70.8,9000\n\
+                   12,1.0,502,11.7,10,117,11000\n\
+                   80,0,40,12.0,0,0,0\n\
+                   84,0.3,140,11.9,2,23.8,6000\n\
+                   88,0.6,340,11.8,6,70.8,9000\n\
+                   92,1.0,540,11.7,10,117,11000\n";
+        let log = StandLog::parse(csv.as_bytes().to_vec(), "two.csv", &StandOptions::default())
+            .expect("log");
+        let runs = runs_of_log(&log).expect("runs");
+        assert_eq!(runs.len(), 2);
+        let r2 = &runs[1].sweep;
+        assert_eq!(r2.steps.len(), 3);
+        assert_eq!(r2.tare_time_s, 80.0);
+        let t: Vec<f64> = r2.steps.iter().map(|o| o.time_s).collect();
+        assert_eq!(t, [84.0, 88.0, 92.0]);
+        // The 40 g tare is taken off every step of the second run.
+        assert!((r2.steps[0].thrust_g - 100.0).abs() < 1e-9);
+        assert_eq!(r2.open_circuit_v, Some(12.0));
+        assert_eq!(runs[0].sweep.steps[0].time_s, 4.0);
+    }
+
+    #[test]
+    fn without_a_time_column_the_clock_is_the_step_order() {
+        let csv = "throttle,thrust_g,power_w\n0,0,0\n0.3,100,20\n0.6,300,70\n1.0,500,117\n";
+        let log = StandLog::parse(csv.as_bytes().to_vec(), "n.csv", &StandOptions::default())
+            .expect("log");
+        let runs = runs_of_log(&log).expect("runs");
+        let t: Vec<f64> = runs[0].sweep.steps.iter().map(|o| o.time_s).collect();
+        assert_eq!(t, [1.0, 2.0, 3.0]);
     }
 }

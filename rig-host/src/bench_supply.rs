@@ -103,6 +103,69 @@ pub struct SupplyStatus {
     pub not_cv_polls: u64,
 }
 
+impl SupplyStatus {
+    /// The worst regulation mode since `before`, once a poll that started after `before`
+    /// has completed (`None` until then): constant current if any poll since found the
+    /// supply not regulating its voltage, even if it is back in constant voltage now.
+    pub fn mode_since(&self, before: &SupplyStatus) -> Option<RegulationMode> {
+        if self.polls_done <= before.polls_started {
+            return None;
+        }
+        Some(
+            if self.not_cv_polls > before.not_cv_polls
+                && self.mode == RegulationMode::ConstantVoltage
+            {
+                RegulationMode::ConstantCurrent
+            } else {
+                self.mode
+            },
+        )
+    }
+
+    /// Whether a poll that started after `before` has completed and found the output in
+    /// constant-voltage mode within 5 % of `voltage_v`.
+    pub fn regulating_at(&self, before: &SupplyStatus, voltage_v: f64) -> bool {
+        let v_ok = self
+            .measurement
+            .is_some_and(|m| (m.voltage_v - voltage_v).abs() <= 0.05 * voltage_v);
+        self.polls_done > before.polls_started
+            && self.mode == RegulationMode::ConstantVoltage
+            && v_ok
+    }
+}
+
+/// The supply's status as a step's samples arrived, one mark per new poll, to know what it
+/// was when the measurement window began.
+#[derive(Debug, Clone, Default)]
+pub struct StatusMarks {
+    marks: Vec<(u64, SupplyStatus)>,
+}
+
+impl StatusMarks {
+    /// Notes the status at a sample taken at `time_us` (rig time), if a poll started since
+    /// the last mark.
+    pub fn note(&mut self, time_us: u64, status: SupplyStatus) {
+        if self
+            .marks
+            .last()
+            .is_none_or(|(_, m)| m.polls_started != status.polls_started)
+        {
+            self.marks.push((time_us, status));
+        }
+    }
+
+    /// The latest status noted before `time_us` (the first one when none is earlier;
+    /// `None` when nothing was noted).
+    pub fn at(&self, time_us: u64) -> Option<SupplyStatus> {
+        self.marks
+            .iter()
+            .rev()
+            .find(|(t, _)| *t < time_us)
+            .or(self.marks.first())
+            .map(|(_, m)| *m)
+    }
+}
+
 /// A bench supply as a sweep drives it.
 pub trait SupplyControl {
     /// The instrument's identification.
@@ -341,5 +404,56 @@ impl Drop for SupplyMonitor {
         if let Some(t) = self.thread.take() {
             let _ = t.join();
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn status(mode: RegulationMode, started: u64, done: u64, not_cv: u64) -> SupplyStatus {
+        SupplyStatus {
+            mode,
+            measurement: Some(Measurement {
+                voltage_v: 12.4,
+                current_a: 1.0,
+            }),
+            polls_started: started,
+            polls_done: done,
+            not_cv_polls: not_cv,
+        }
+    }
+
+    #[test]
+    fn the_mode_since_waits_for_a_fresh_poll_and_remembers_current_limiting() {
+        let cv = RegulationMode::ConstantVoltage;
+        let before = status(cv, 5, 4, 0);
+        assert_eq!(status(cv, 6, 5, 0).mode_since(&before), None);
+        assert_eq!(status(cv, 7, 6, 0).mode_since(&before), Some(cv));
+        // Current-limited in between, back in constant voltage now: still a limited step.
+        assert_eq!(
+            status(cv, 8, 7, 1).mode_since(&before),
+            Some(RegulationMode::ConstantCurrent)
+        );
+        assert!(status(cv, 7, 6, 0).regulating_at(&before, 12.5));
+        assert!(!status(cv, 7, 6, 0).regulating_at(&before, 14.0));
+        assert!(!status(cv, 5, 5, 0).regulating_at(&before, 12.5));
+    }
+
+    #[test]
+    fn marks_give_the_status_before_a_window() {
+        let cv = RegulationMode::ConstantVoltage;
+        let mut marks = StatusMarks::default();
+        assert_eq!(marks.at(10), None);
+        marks.note(100, status(cv, 1, 0, 0));
+        marks.note(110, status(cv, 1, 1, 0)); // same poll: not a new mark
+        marks.note(120, status(cv, 2, 1, 0));
+        assert_eq!(marks.at(50).map(|s| s.polls_started), Some(1), "first");
+        assert_eq!(
+            marks.at(120).map(|s| s.polls_started),
+            Some(1),
+            "strictly before"
+        );
+        assert_eq!(marks.at(121).map(|s| s.polls_started), Some(2));
     }
 }

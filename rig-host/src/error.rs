@@ -1,8 +1,9 @@
-//! What can go wrong on the host side.
+//! What can go wrong on the host side ([`HostError`]), how a rig link's errors map onto it
+//! ([`LinkError`]), and what state an error leaves the bench in ([`safe_state`]).
 
 use std::path::PathBuf;
 
-use rig_protocol::FaultCause;
+use rig_protocol::{ClientError, FaultCause};
 use thiserror::Error;
 
 /// How the bench supply was lost (the cause of [`HostError::SupplyLost`]).
@@ -35,7 +36,7 @@ pub enum SupplyLoss {
     NoMode(std::time::Duration),
     /// The output did not reach the set-point in constant-voltage mode.
     #[error(
-        "output not at {voltage_v} V in constant-voltage mode within {timeout:?} (mode {mode}, {measurement})"
+        "output not at {voltage_v} V in constant-voltage mode within {timeout:?} (mode {mode:?}, {measurement:?})"
     )]
     NotRegulating {
         /// The set-point, V.
@@ -43,9 +44,9 @@ pub enum SupplyLoss {
         /// How long was waited.
         timeout: std::time::Duration,
         /// The regulation mode seen.
-        mode: String,
+        mode: supply::RegulationMode,
         /// The last measurement.
-        measurement: String,
+        measurement: Option<supply::Measurement>,
     },
 }
 
@@ -183,5 +184,62 @@ impl HostError {
             path: path.into(),
             source,
         }
+    }
+}
+
+/// What the sweep needs to know about a rig connection's errors.
+pub trait LinkError: std::error::Error + Send + Sync + 'static {
+    /// Whether the transport failed (as opposed to a timeout or a refusal).
+    fn is_transport(&self) -> bool;
+    /// Whether the rig refused a command because a fault is latched.
+    fn is_faulted(&self) -> bool;
+}
+
+impl<E: std::fmt::Debug + Send + Sync + 'static> LinkError for ClientError<E> {
+    fn is_transport(&self) -> bool {
+        matches!(self, ClientError::Transport(_))
+    }
+    fn is_faulted(&self) -> bool {
+        matches!(
+            self,
+            ClientError::Nack {
+                reason: rig_protocol::NackReason::Faulted,
+                ..
+            }
+        )
+    }
+}
+
+/// Maps a rig client's error to [`HostError::LinkLost`] (the transport failed) or
+/// [`HostError::Rig`], keeping it as the source.
+pub(crate) fn rig_err<E: LinkError>(during: &'static str) -> impl Fn(E) -> HostError {
+    move |e| {
+        if e.is_transport() {
+            HostError::LinkLost {
+                during,
+                source: Box::new(e),
+            }
+        } else {
+            HostError::Rig {
+                during,
+                source: Box::new(e),
+            }
+        }
+    }
+}
+
+/// What state an error leaves the bench in, after the runner's safe stop (one sentence for
+/// the operator).
+pub fn safe_state(e: &HostError) -> &'static str {
+    match e {
+        HostError::LinkLost { .. } => {
+            "the link to the rig is gone, so its firmware watchdog cuts the throttle within 250 ms; \
+             the supply output was switched off"
+        }
+        HostError::SupplyLost(_) | HostError::Supply { .. } => {
+            "throttle set to zero and rig disarmed; the supply did not answer: check that its \
+             output is off"
+        }
+        _ => "throttle set to zero, rig disarmed and supply output switched off",
     }
 }

@@ -15,9 +15,13 @@
 //! - [`settle::SettleDetector`]: steady state from the samples' statistics (rolling mean and
 //!   slope against the noise), or a fixed dwell for comparison;
 //! - [`sweep::run_sweep`] / [`sweep::run_logged`]: thrust-targeted nominal sweeps (closed loop
-//!   on throttle, ±1 g) and throttle-stepped limit sweeps, with safe stops;
+//!   on throttle, ±1 g) and throttle-stepped limit sweeps, with safe stops; configured by
+//!   [`config::SweepConfig`], reporting [`events::SweepEvent`]s, writing to a
+//!   [`sink::StepSink`]; the runner behind them only orchestrates;
 //! - [`controller::StepController`]: the pure throttle controller of a thrust-targeted step
 //!   (secants in √thrust; state in, set-point out);
+//! - [`rig_ops`]: clean disarm, idling and load-cell calibration outside a sweep;
+//!   [`header::sweep_header`]: a sweep log's comment block;
 //! - [`log::SweepLog`]: crash-safe CSV logs (fsynced per step, raw samples beside, comment
 //!   block, `--resume`);
 //! - [`session::characterise`]: the whole job into a session folder;
@@ -59,14 +63,20 @@
 //! ```
 
 pub mod bench_supply;
+pub mod config;
 pub mod controller;
 pub mod error;
+pub mod events;
+pub mod header;
 pub mod link;
 pub mod log;
+pub mod rig_ops;
+mod runner;
 pub mod session;
 pub mod settle;
 #[cfg(unix)]
 pub mod simbench;
+pub mod sink;
 pub mod sweep;
 
 pub use error::{HostError, SupplyLoss};

@@ -80,6 +80,15 @@ impl SerialLink {
     }
 }
 
+/// Whether a port error only means "nothing yet" (no room to write, no byte to read within
+/// the port's timeout, a signal): the caller tries again.
+fn no_data_yet(e: &io::Error) -> bool {
+    matches!(
+        e.kind(),
+        io::ErrorKind::WouldBlock | io::ErrorKind::TimedOut | io::ErrorKind::Interrupted
+    )
+}
+
 impl Transport for SerialLink {
     type Error = io::Error;
 
@@ -90,13 +99,7 @@ impl Transport for SerialLink {
             match self.port.write(rest) {
                 Ok(0) => {}
                 Ok(n) => rest = &rest[n..],
-                Err(e)
-                    if matches!(
-                        e.kind(),
-                        io::ErrorKind::WouldBlock
-                            | io::ErrorKind::TimedOut
-                            | io::ErrorKind::Interrupted
-                    ) => {}
+                Err(e) if no_data_yet(&e) => {}
                 Err(e) => return Err(e),
             }
             if !rest.is_empty() && Instant::now() > deadline {
@@ -112,16 +115,7 @@ impl Transport for SerialLink {
     fn read(&mut self, buf: &mut [u8]) -> Result<usize, io::Error> {
         match self.port.read(buf) {
             Ok(n) => Ok(n),
-            Err(e)
-                if matches!(
-                    e.kind(),
-                    io::ErrorKind::WouldBlock
-                        | io::ErrorKind::TimedOut
-                        | io::ErrorKind::Interrupted
-                ) =>
-            {
-                Ok(0)
-            }
+            Err(e) if no_data_yet(&e) => Ok(0),
             Err(e) => Err(e),
         }
     }

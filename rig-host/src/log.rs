@@ -126,18 +126,24 @@ impl StepRecord {
         }
         let get = |name: &str| header.iter().position(|h| *h == name).map(|i| cells[i]);
         let num = |name: &str| get(name).and_then(|c| c.parse::<f64>().ok());
+        // a spread as the importer reads one (`import::Table::uncertainty_column`): an empty
+        // cell is no spread (NaN here), a value must be a finite number ≥ 0
+        let spread = |name: &str| match get(name)? {
+            "" => Some(f64::NAN),
+            c => c.parse::<f64>().ok().filter(|v| v.is_finite() && *v >= 0.0),
+        };
         Some(Self {
             step: get("step")?.parse().ok()?,
             target_g: num("target_g"),
             throttle_us: get("throttle_us")?.parse().ok()?,
             thrust_g: num("thrust_g")?,
-            thrust_std_g: num("thrust_std_g")?,
+            thrust_std_g: spread("thrust_std_g")?,
             current_a: num("current_a")?,
-            current_std_a: num("current_std_a")?,
+            current_std_a: spread("current_std_a")?,
             voltage_v: num("voltage_v")?,
-            voltage_std_v: num("voltage_std_v")?,
+            voltage_std_v: spread("voltage_std_v")?,
             power_w: num("power_w")?,
-            power_std_w: num("power_std_w")?,
+            power_std_w: spread("power_std_w")?,
             samples: get("samples")?.parse().ok()?,
             settle_s: num("settle_s")?,
             time_s: num("time_s")?,
@@ -447,6 +453,96 @@ pub fn is_complete(path: &Path) -> bool {
             .find(|l| !l.trim().is_empty())
             .is_some_and(|l| l.trim() == "# end: complete")
     })
+}
+
+/// Reads a log without opening it for writing: its complete steps and whether it ended with
+/// `# end: complete` (a partial last line is ignored). For a finished session that is only
+/// regenerated.
+pub fn read_steps(path: &Path) -> Result<ResumeState, HostError> {
+    let refuse = |reason: String| HostError::Resume {
+        path: path.to_owned(),
+        reason,
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| HostError::io(path, e))?;
+    let keep = text.rfind('\n').map_or(0, |i| i + 1);
+    let mut lines = text[..keep].lines().skip_while(|l| l.starts_with('#'));
+    let head = lines
+        .next()
+        .ok_or_else(|| refuse("no column header".into()))?;
+    let head_record = csv_record(head).ok_or_else(|| refuse(format!("column header {head:?}")))?;
+    let names: Vec<&str> = head_record.iter().collect();
+    let mut state = ResumeState::default();
+    for (i, l) in lines.enumerate() {
+        if let Some(c) = l.strip_prefix('#') {
+            state.complete = c.trim() == "end: complete";
+            continue;
+        }
+        if l.trim().is_empty() {
+            continue;
+        }
+        let row = StepRecord::parse(&names, l)
+            .ok_or_else(|| refuse(format!("row {} is not a step: {l:?}", i + 1)))?;
+        state.complete = false;
+        state.rows.push(row);
+    }
+    Ok(state)
+}
+
+/// Rig time, s, that the sample log at `path` records for the steps before `before_step`: the
+/// span of the sample clock over each run (a resumed run starts a new span: `# resumed`, or
+/// the rig's clock starting again), summed. 0 when the log cannot be read.
+pub fn logged_rig_time_s(path: &Path, before_step: usize) -> f64 {
+    let Ok(text) = std::fs::read_to_string(path) else {
+        return 0.0;
+    };
+    let mut lines = text.lines().skip_while(|l| l.starts_with('#'));
+    let Some(head) = lines.next() else {
+        return 0.0;
+    };
+    let names: Vec<&str> = head.split(',').map(str::trim).collect();
+    let (Some(step_col), Some(time_col)) = (
+        names.iter().position(|n| *n == "step"),
+        names.iter().position(|n| *n == "time_us"),
+    ) else {
+        return 0.0;
+    };
+    let mut total_us = 0u64;
+    let mut span: Option<(u64, u64)> = None;
+    let mut close = |span: &mut Option<(u64, u64)>| {
+        if let Some((a, b)) = span.take() {
+            total_us += b.saturating_sub(a);
+        }
+    };
+    for l in lines {
+        if l.starts_with('#') {
+            close(&mut span);
+            continue;
+        }
+        let cells: Vec<&str> = l.split(',').collect();
+        let (Some(step), Some(t)) = (
+            cells
+                .get(step_col)
+                .and_then(|c| c.trim().parse::<usize>().ok()),
+            cells
+                .get(time_col)
+                .and_then(|c| c.trim().parse::<u64>().ok()),
+        ) else {
+            continue;
+        };
+        if step >= before_step {
+            continue;
+        }
+        span = match span {
+            Some((a, b)) if t >= b => Some((a, t)),
+            Some(_) => {
+                close(&mut span);
+                Some((t, t))
+            }
+            None => Some((t, t)),
+        };
+    }
+    close(&mut span);
+    total_us as f64 * 1e-6
 }
 
 #[cfg(test)]

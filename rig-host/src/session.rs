@@ -183,13 +183,29 @@ pub struct SweepSummary {
 }
 
 impl SweepSummary {
-    fn of(rows: &[StepRecord], outcome: Option<&SweepOutcome>, earlier_s: f64) -> Self {
+    /// The summary of a sweep whose samples are logged in `samples`: `outcome` is this run's
+    /// (`None`: the sweep was complete before), `earlier_s` the rig time an earlier summary
+    /// recorded for it. The rig time of earlier, interrupted runs is read from the sample log.
+    fn of(
+        rows: &[StepRecord],
+        outcome: Option<&SweepOutcome>,
+        earlier_s: f64,
+        samples: &Path,
+    ) -> Self {
+        let rig_time_s = match outcome {
+            Some(o) if o.resumed_steps > 0 => {
+                log::logged_rig_time_s(samples, o.resumed_steps) + o.rig_time_s
+            }
+            Some(o) => o.rig_time_s,
+            None if earlier_s > 0.0 => earlier_s,
+            None => log::logged_rig_time_s(samples, usize::MAX),
+        };
         Self {
             steps: rows.len(),
             valid_steps: rows.iter().filter(|r| r.valid).count(),
             resumed_steps: outcome.map_or(rows.len(), |o| o.resumed_steps),
             end: outcome.map_or("complete (earlier run)".into(), |o| o.end.to_string()),
-            rig_time_s: earlier_s + outcome.map_or(0.0, |o| o.rig_time_s),
+            rig_time_s,
             max_thrust_g: rows.iter().map(|r| r.thrust_g).fold(0.0, f64::max),
         }
     }
@@ -280,6 +296,7 @@ struct Earlier {
     nominal_s: f64,
     limit_s: f64,
     calibration: String,
+    bench: String,
 }
 
 impl Earlier {
@@ -295,6 +312,7 @@ impl Earlier {
             nominal_s: time("nominal"),
             limit_s: time("limit"),
             calibration: v["calibration"].as_str().unwrap_or_default().to_owned(),
+            bench: v["bench"].as_str().unwrap_or_default().to_owned(),
         }
     }
 }
@@ -311,6 +329,85 @@ pub fn check_session_dir(dir: &Path, resume: bool) -> Result<(), HostError> {
         )));
     }
     Ok(())
+}
+
+/// Whether the session in `dir` has both sweeps complete (`# end: complete`): nothing is left
+/// to measure, and `--resume` only regenerates its outputs ([`regenerate`]).
+pub fn is_finished(dir: &Path) -> bool {
+    log::is_complete(&dir.join(files::SWEEP)) && log::is_complete(&dir.join(files::LIMIT))
+}
+
+/// Regenerates a finished session's `params.toml` and summaries from its logs, without a rig:
+/// nothing moves and nothing is calibrated. The rig time and calibration are those the session
+/// recorded.
+pub fn regenerate(config: &SessionConfig) -> Result<SessionSummary, HostError> {
+    let dir = &config.dir;
+    if !is_finished(dir) {
+        return Err(HostError::Invalid(format!(
+            "{} is not a finished session (both sweeps ending with `# end: complete`)",
+            dir.display()
+        )));
+    }
+    let _lock = SessionLock::acquire(dir)?;
+    let p = |name: &str| dir.join(name);
+    let earlier = Earlier::read(dir);
+    let nominal_rows = log::read_steps(&p(files::SWEEP))?.rows;
+    let limit_rows = log::read_steps(&p(files::LIMIT))?.rows;
+    let (params, fit) = fit_sweeps(
+        &p(files::SWEEP),
+        &p(files::LIMIT),
+        config.rotors,
+        config.degree,
+    )?;
+    write_atomic(&p(files::PARAMS), params.to_toml_string().as_bytes())?;
+    let calibration = if earlier.calibration.is_empty() {
+        std::fs::read_to_string(p(files::SWEEP))
+            .ok()
+            .and_then(|t| {
+                log::LogHeader::parse(&t)
+                    .get("calibration")
+                    .map(str::to_owned)
+            })
+            .unwrap_or_default()
+    } else {
+        earlier.calibration.clone()
+    };
+    let summary = SessionSummary {
+        bench: if earlier.bench.is_empty() {
+            config.bench.clone()
+        } else {
+            earlier.bench.clone()
+        },
+        dir: dir.display().to_string(),
+        calibration,
+        nominal: SweepSummary::of(
+            &nominal_rows,
+            None,
+            earlier.nominal_s,
+            &p(files::SWEEP_SAMPLES),
+        ),
+        limit: SweepSummary::of(&limit_rows, None, earlier.limit_s, &p(files::LIMIT_SAMPLES)),
+        fit,
+        files: [
+            files::SWEEP,
+            files::SWEEP_SAMPLES,
+            files::LIMIT,
+            files::LIMIT_SAMPLES,
+            files::PARAMS,
+            files::SUMMARY_TXT,
+            files::SUMMARY_JSON,
+        ]
+        .map(str::to_owned)
+        .to_vec(),
+    };
+    let json = serde_json::to_string_pretty(&summary)
+        .map_err(|e| HostError::Invalid(format!("summary: {e}")))?;
+    write_atomic(&p(files::SUMMARY_JSON), format!("{json}\n").as_bytes())?;
+    write_atomic(
+        &p(files::SUMMARY_TXT),
+        summary_text(&summary, &nominal_rows, &limit_rows).as_bytes(),
+    )?;
+    Ok(summary)
 }
 
 /// Runs a characterisation on a connected rig and supply; see the [module docs](self).
@@ -366,7 +463,10 @@ where
     let calibration = if calibration.is_empty() && finished && !earlier.calibration.is_empty() {
         earlier.calibration.clone()
     } else if calibration.is_empty() {
-        format!("kept by the rig ({} points)", status.calibration_points)
+        format!(
+            "kept by the rig ({})",
+            count(usize::from(status.calibration_points), "point")
+        )
     } else {
         calibration
     };
@@ -445,8 +545,18 @@ where
         bench: config.bench.clone(),
         dir: dir.display().to_string(),
         calibration,
-        nominal: SweepSummary::of(&nominal_rows, nominal.as_ref(), earlier.nominal_s),
-        limit: SweepSummary::of(&limit_rows, limit.as_ref(), earlier.limit_s),
+        nominal: SweepSummary::of(
+            &nominal_rows,
+            nominal.as_ref(),
+            earlier.nominal_s,
+            &p(files::SWEEP_SAMPLES),
+        ),
+        limit: SweepSummary::of(
+            &limit_rows,
+            limit.as_ref(),
+            earlier.limit_s,
+            &p(files::LIMIT_SAMPLES),
+        ),
         fit,
         files: done,
     };
@@ -460,6 +570,15 @@ where
     Ok(summary)
 }
 
+/// `n` and a noun, in the singular for one (`1 step`, `3 steps`).
+fn count(n: usize, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
+    }
+}
+
 /// The human summary of a session: the steps of both sweeps, the fit and the thrust limit.
 pub fn summary_text(s: &SessionSummary, nominal: &[StepRecord], limit: &[StepRecord]) -> String {
     use std::fmt::Write as _;
@@ -470,8 +589,11 @@ pub fn summary_text(s: &SessionSummary, nominal: &[StepRecord], limit: &[StepRec
     let _ = writeln!(t);
     let _ = writeln!(
         t,
-        "nominal sweep: {} steps ({} valid), {}; {:.1} s of rig time",
-        s.nominal.steps, s.nominal.valid_steps, s.nominal.end, s.nominal.rig_time_s
+        "nominal sweep: {} ({} valid), {}; {:.1} s of rig time",
+        count(s.nominal.steps, "step"),
+        s.nominal.valid_steps,
+        s.nominal.end,
+        s.nominal.rig_time_s
     );
     let _ = writeln!(
         t,
@@ -503,24 +625,33 @@ pub fn summary_text(s: &SessionSummary, nominal: &[StepRecord], limit: &[StepRec
     let _ = writeln!(t);
     let _ = writeln!(
         t,
-        "limit sweep: {} steps ({} valid), {}; highest thrust {:.2} g",
-        s.limit.steps, s.limit.valid_steps, s.limit.end, s.limit.max_thrust_g
+        "limit sweep: {} ({} valid), {}; highest thrust {:.2} g",
+        count(s.limit.steps, "step"),
+        s.limit.valid_steps,
+        s.limit.end,
+        s.limit.max_thrust_g
     );
     for r in limit.iter().rev().take(4).rev() {
+        // an empty spread in the log (a step without one) reads as NaN
+        let spread = if r.thrust_std_g.is_finite() {
+            format!(" ± {:.2}", r.thrust_std_g)
+        } else {
+            String::new()
+        };
         let _ = writeln!(
             t,
-            "  {} us: {:.2} ± {:.2} g at {:.3} V",
-            r.throttle_us, r.thrust_g, r.thrust_std_g, r.voltage_v
+            "  {} us: {:.2}{spread} g at {:.3} V",
+            r.throttle_us, r.thrust_g, r.voltage_v
         );
     }
     let f = &s.fit;
     let _ = writeln!(t);
     let _ = writeln!(
         t,
-        "fit: power_w = p(thrust_g), degree {}, {} points ({} invalid rows skipped), {:.1}..{:.1} g, RMSE {:.4} W, R² {:.6}",
+        "fit: power_w = p(thrust_g), degree {}, {} ({} skipped), {:.1}..{:.1} g, RMSE {:.4} W, R² {:.6}",
         f.coefficients.len().saturating_sub(1),
-        f.n_points,
-        f.skipped_invalid,
+        count(f.n_points, "point"),
+        count(f.skipped_invalid, "invalid row"),
         f.valid_range_g.0,
         f.valid_range_g.1,
         f.rmse_w,

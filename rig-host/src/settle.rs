@@ -197,6 +197,20 @@ impl Window {
             settle_s,
         }
     }
+
+    /// Rig time of the window's first and last samples, µs.
+    pub fn span_us(&self) -> (u64, u64) {
+        (
+            self.samples.first().map_or(0, |s| s.time_us),
+            self.samples.last().map_or(0, |s| s.time_us),
+        )
+    }
+
+    /// Whether a sample taken at `time_us` (rig time) falls within the window.
+    pub fn contains(&self, time_us: u64) -> bool {
+        let (a, b) = self.span_us();
+        (a..=b).contains(&time_us)
+    }
 }
 
 /// What a [`SettleDetector`] is doing.
@@ -226,6 +240,7 @@ pub struct SettleDetector {
     policy: SettlePolicy,
     throttle_us: u16,
     commanded_at_us: Option<u64>,
+    last_us: u64,
     reached: bool,
     window: VecDeque<Sample>,
     state: SettleState,
@@ -240,6 +255,7 @@ impl SettleDetector {
             policy,
             throttle_us,
             commanded_at_us: None,
+            last_us: 0,
             reached: false,
             window: VecDeque::new(),
             state: SettleState::Slewing,
@@ -258,9 +274,24 @@ impl SettleDetector {
             .map_or(0.0, |t0| now_us.saturating_sub(t0) as f64 * 1e-6)
     }
 
+    /// Rig time from the first sample after the command to the latest one, s (0 before
+    /// the first sample). This is the clock a settle timeout runs on: a starved simulator
+    /// slows rig time, not the physics.
+    pub fn settling_for_s(&self) -> f64 {
+        self.elapsed_s(self.last_us)
+    }
+
+    /// `Some(settling time)` once the step has been settling for longer than `timeout_s`
+    /// of rig time ([`Self::settling_for_s`]) without becoming steady.
+    pub fn timed_out(&self, timeout_s: f64) -> Option<f64> {
+        let t = self.settling_for_s();
+        (t > timeout_s && self.state != SettleState::Steady).then_some(t)
+    }
+
     /// Takes the next sample; returns the measurement window once the step is steady.
     pub fn push(&mut self, s: Sample) -> Option<Window> {
         let t0 = *self.commanded_at_us.get_or_insert(s.time_us);
+        self.last_us = s.time_us;
         let elapsed_s = s.time_us.saturating_sub(t0) as f64 * 1e-6;
         if self.reached && s.throttle_us != self.throttle_us {
             // The output left the commanded throttle (a fault cut it): start over.
@@ -380,6 +411,34 @@ mod tests {
         let (t, w) = steady_at.expect("settles");
         assert!(t > 0.6 && t < 2.0, "{t}");
         assert!((w.thrust.mean - 100.0).abs() < 0.3, "{:?}", w.thrust);
+    }
+
+    #[test]
+    fn the_timeout_runs_on_rig_time_from_the_first_sample() {
+        let mut d = SettleDetector::new(SettlePolicy::default(), 1500);
+        assert_eq!(d.settling_for_s(), 0.0);
+        assert_eq!(d.timed_out(0.5), None);
+        // Never reaches the commanded throttle: slewing for ever.
+        for k in 0..=100 {
+            let t = 10.0 + f64::from(k) * 0.01;
+            assert!(d.push(sample(t, 20.0, 1400)).is_none());
+        }
+        assert!((d.settling_for_s() - 1.0).abs() < 1e-6);
+        assert_eq!(d.timed_out(1.5), None);
+        let late = d.timed_out(0.5).expect("timed out");
+        assert!((late - 1.0).abs() < 1e-6, "{late}");
+    }
+
+    #[test]
+    fn a_window_knows_its_span() {
+        let mut d = SettleDetector::new(SettlePolicy::STAND_DEFAULT, 1500);
+        let w = (0..1000)
+            .find_map(|k| d.push(sample(f64::from(k) * 0.0125, 50.0, 1500)))
+            .unwrap();
+        let (a, b) = w.span_us();
+        assert_eq!((a, b), (w.samples[0].time_us, w.samples[19].time_us));
+        assert!(w.contains(a) && w.contains(b) && !w.contains(a - 1) && !w.contains(b + 1));
+        assert_eq!(d.timed_out(0.1), None, "a steady step does not time out");
     }
 
     #[test]

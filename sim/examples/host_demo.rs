@@ -13,8 +13,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let speed: f64 = std::env::args().nth(2).map_or(Ok(1.0), |s| s.parse())?;
     let port = HostPort::open(path.as_ref(), Duration::from_millis(2))?;
     let clock = WallClock::scaled(speed);
-    let mut rig =
-        Client::connect(port, clock, ClientConfig::default()).map_err(|e| format!("{e:?}"))?;
+    let mut rig = Client::connect(port, clock, ClientConfig::default())?;
     let run = |rig: &mut Client<HostPort, WallClock>| -> Result<(), rig_protocol::ClientError<std::io::Error>> {
         // (samples below: one second of rig time per throttle step)
         println!("{:?}", rig.identify()?);
@@ -37,6 +36,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!("{:?}", rig.status()?);
         Ok(())
     };
-    run(&mut rig).map_err(|e| format!("{e:?}"))?;
+    run(&mut rig)?;
     Ok(())
 }

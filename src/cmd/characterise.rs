@@ -120,6 +120,18 @@ pub fn run(args: Args) -> Result<()> {
     // Every setting is checked before the (simulated) rig is started or moved.
     config.validate()?;
     session::check_session_dir(&args.output, args.resume)?;
+    // A finished session resumed: nothing to measure, no rig, no calibration (with hardware it
+    // would ask for the masses again); its outputs are regenerated from its logs.
+    if args.resume && session::is_finished(&args.output) {
+        eprintln!(
+            "{} is complete (both sweeps finished): nothing to measure; regenerating {}, the \
+             summary and the figures from its logs",
+            args.output.display(),
+            files::PARAMS
+        );
+        let summary = session::regenerate(&config)?;
+        return finish(&args, &summary, true);
+    }
     let stop = interrupt_flag();
     let mut progress = Progress::new("characterise", args.json);
     let bench;
@@ -220,10 +232,25 @@ pub fn run(args: Args) -> Result<()> {
             args.output.display()
         ))
     })?;
-    // The figures: the paper's platform for the simulated paper rig, the given one otherwise.
-    let simulated_paper = args.rig.is_none() && args.preset == "paper";
+    finish(&args, &summary, false)
+}
+
+/// Stores the platform, draws the figures and prints the summary of a session that has run
+/// (or, `finished_before`, was only regenerated).
+fn finish(args: &Args, summary: &session::SessionSummary, finished_before: bool) -> Result<()> {
+    // The figures: the given platform, else the one the session stored, else the paper's for
+    // the simulated paper rig.
+    let simulated_paper = args.rig.is_none() && args.preset == "paper" && !finished_before;
+    let stored = reports::session::SessionPlatform::load(&args.output)?;
     let platform = match (args.structure_mass, args.avionics_power) {
         (Some(m), Some(p)) => Some((m, p, None)),
+        _ if stored.is_some() => stored.map(|p| {
+            (
+                p.structure_mass_kg,
+                p.avionics_power_w,
+                p.battery_mass_kg.zip(p.battery_energy_density_wh_per_kg),
+            )
+        }),
         _ if simulated_paper => Some((
             paper::STRUCTURE_MASS_KG,
             paper::AVIONICS_POWER_W,
@@ -259,7 +286,7 @@ pub fn run(args: Args) -> Result<()> {
         _ => Vec::new(),
     };
     if args.json {
-        return crate::output::print_json(&summary);
+        return crate::output::print_json(summary);
     }
     let text = std::fs::read_to_string(args.output.join(files::SUMMARY_TXT))
         .with_context(|| format!("reading back {}", files::SUMMARY_TXT))?;

@@ -195,29 +195,65 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
+/// `n` and a noun, in the singular for one (`1 row`, `3 rows`).
+fn count(n: usize, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
+    }
+}
+
+/// Decimals that show a quantity spanning `span` to about four significant digits.
+fn decimals_for(span: f64) -> usize {
+    if !(span.is_finite() && span > 0.0) {
+        return 3;
+    }
+    (3.0 - span.log10().floor()).clamp(0.0, 12.0) as usize
+}
+
+/// `v` with `d` decimals, never a negative zero.
+fn fixed(v: f64, d: usize) -> String {
+    let s = format!("{v:.d$}");
+    if s.starts_with('-') && s[1..].chars().all(|c| c == '0' || c == '.') {
+        s[1..].to_owned()
+    } else {
+        s
+    }
+}
+
 fn print_human(rep: &Report<'_>) {
     println!("{} ({})", rep.input, rep.log_kind);
+    // What was assumed about the log and what to watch for goes to stderr: stdout is the result.
     for n in &rep.notes {
-        println!("note: {n}");
+        eprintln!("note: {n}");
     }
     println!(
-        "{} = p({}), degree {}, {} points{}",
+        "{} = p({}), degree {}, {}{}",
         rep.y,
         rep.x,
         rep.degree,
-        rep.n_points,
+        count(rep.n_points, "point"),
         if rep.skipped_invalid_rows > 0 {
             format!(
-                " ({} rows marked invalid were skipped)",
-                rep.skipped_invalid_rows
+                " ({} marked invalid {} skipped)",
+                count(rep.skipped_invalid_rows, "row"),
+                if rep.skipped_invalid_rows == 1 {
+                    "was"
+                } else {
+                    "were"
+                }
             )
         } else {
             String::new()
         }
     );
+    let d = decimals_for(rep.valid_range.1 - rep.valid_range.0);
     println!(
         "valid over {} = {} .. {}",
-        rep.x, rep.valid_range.0, rep.valid_range.1
+        rep.x,
+        fixed(rep.valid_range.0, d),
+        fixed(rep.valid_range.1, d)
     );
     println!();
     let mut t = TextTable::new(&["k", "coefficient b_k (per x^k)", "std error"]);
@@ -235,13 +271,13 @@ fn print_human(rep: &Report<'_>) {
         rep.rmse,
         rep.r_squared,
         match (rep.max_abs_residual, rep.max_residual_at) {
-            (Some(r), Some(x)) => format!("{r:.4e} at {} = {x}", rep.x),
+            (Some(r), Some(x)) => format!("{r:.4e} at {} = {}", rep.x, fixed(x, d)),
             _ => "-".into(),
         },
         rep.condition_number
     );
     for w in &rep.warnings {
-        println!("warning: {w}");
+        eprintln!("warning: {w}");
     }
     if let Some(l) = &rep.thrust_limit {
         println!(

@@ -29,6 +29,10 @@ fn num(x: f64, decimals: usize) -> String {
 
 /// One flight's line, and its indented details.
 fn print_flight(f: &FlightSummary) {
+    let voltage = f.voltage_v.map_or_else(
+        || "no valid voltage".to_owned(),
+        |[lo, hi]| format!("{}–{} V", num(lo, 2), num(hi, 2)),
+    );
     let current = f.current_a.map_or_else(
         || "no current".to_owned(),
         |[lo, hi]| format!("{}–{} A", num(lo, 2), num(hi, 2)),
@@ -48,14 +52,13 @@ fn print_flight(f: &FlightSummary) {
             .join(", ")
     };
     println!(
-        "{}  {}  {} s  {} samples @ {} Hz  {}–{} V  {}  {}  phases: {} ({})",
+        "{}  {}  {} s  {} samples @ {} Hz  {}  {}  {}  phases: {} ({})",
         f.name,
         f.format,
         num(f.duration_s, 1),
         f.samples,
         num(f.rate_hz, 1),
-        num(f.voltage_v[0], 2),
-        num(f.voltage_v[1], 2),
+        voltage,
         current,
         energy,
         phases,

@@ -32,6 +32,21 @@ pub fn run(args: Args) -> Result<()> {
     let mut rows = Vec::new();
     for r in 0..table.len() {
         let num = |c: &str| table.cell_number(r, c);
+        // a value that must be ≥ 0 (a spread, a payload), or a whole count ≥ 1
+        let at_least_zero = |c: &str| -> Result<f64> {
+            let v = num(c)?;
+            if v < 0.0 {
+                return Err(table.bad_value(r, c, "a number ≥ 0").into());
+            }
+            Ok(v)
+        };
+        let count = |c: &str| -> Result<u32> {
+            let v = num(c)?;
+            if v.fract() != 0.0 || !(1.0..=f64::from(u32::MAX)).contains(&v) {
+                return Err(table.bad_value(r, c, "a whole number ≥ 1").into());
+            }
+            Ok(v as u32)
+        };
         let plan = estimator::plan::parse_plan(plans[r])
             .with_context(|| format!("{}, line {}: plan", args.file.display(), table.line(r)))?;
         rows.push(MissionSummaryRow {
@@ -44,12 +59,12 @@ pub fn run(args: Args) -> Result<()> {
             )
             .with_context(|| format!("{}, line {}", args.file.display(), table.line(r)))?,
             payload: Payload {
-                mass_kg: num("payload_mass_kg")?,
-                power_w: num("payload_power_w")?,
+                mass_kg: at_least_zero("payload_mass_kg")?,
+                power_w: at_least_zero("payload_power_w")?,
             },
-            measured_mean_min: num("measured_mean_min")?,
-            measured_std_min: num("measured_std_min")?,
-            samples: num("samples")? as u32,
+            measured_mean_min: at_least_zero("measured_mean_min")?,
+            measured_std_min: at_least_zero("measured_std_min")?,
+            samples: count("samples")?,
         });
     }
     let gaps = explain(&model, &rows)?;

@@ -2,6 +2,7 @@
 
 use clap::Subcommand;
 
+pub mod battery;
 pub mod characterise;
 pub mod estimate;
 pub mod export;
@@ -15,6 +16,8 @@ pub mod mission;
 pub mod optimise;
 pub mod paper;
 pub mod ports;
+pub mod replay;
+pub mod replay_eval;
 pub mod report;
 pub mod rig_gap;
 pub mod rig_gap_eval;
@@ -66,6 +69,14 @@ pub enum Command {
     RigGap(rig_gap::Args),
     /// The stand gap diagnosis' blind study on the stand truth simulator.
     RigGapEval(rig_gap_eval::Args),
+    /// Replay flights through the online endurance estimator and its baselines (PX4, coulomb
+    /// counter, static model) sample by sample, scored on flights that end at the cut-off.
+    Replay(replay::Args),
+    /// The pack model of a parameter file: learn it from flights into its [battery] section.
+    Battery(battery::Args),
+    /// The online estimator's study on simulated flights with faded, resistive or cold packs and
+    /// payload changes it is not told about, per group of world families.
+    ReplayEval(replay_eval::Args),
     /// Run the simulated rig (the real firmware core on simulated peripherals) behind a
     /// pseudo-terminal and print its port path.
     SimRig(sim_rig::Args),
@@ -93,6 +104,9 @@ pub fn run(command: Command) -> anyhow::Result<()> {
         Command::SimRig(a) => sim_rig::run(a),
         Command::RigGap(a) => rig_gap::run(a),
         Command::RigGapEval(a) => rig_gap_eval::run(a),
+        Command::Replay(a) => replay::run(a),
+        Command::Battery(a) => battery::run(a),
+        Command::ReplayEval(a) => replay_eval::run(a),
     }
 }
 

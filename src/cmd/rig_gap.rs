@@ -189,8 +189,10 @@ pub fn run(args: Args) -> Result<()> {
         (train, held, "--holdout".to_owned())
     };
     let d = diagnose(&train, &held, &Options::default())?;
-    if let Some(dir) = &args.output {
-        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    if let Some(target) = &args.output {
+        // built aside and renamed into place whole (outfile::StagedDir)
+        let staged = outfile::StagedDir::owning(target, |n| n.starts_with("rig-gap"))?;
+        let dir = staged.path();
         output::write_atomic(
             &dir.join("rig-gap.json"),
             serde_json::to_string_pretty(&json(&d, &rule))?.as_bytes(),
@@ -236,6 +238,7 @@ pub fn run(args: Args) -> Result<()> {
                 .collect(),
         };
         reports::rig_gap::draw(&fig, &dir.join("rig-gap.svg"), &dir.join("rig-gap.png"))?;
+        staged.commit()?;
     }
     if args.json {
         output::print_json(&json(&d, &rule))

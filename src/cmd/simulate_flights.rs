@@ -42,20 +42,29 @@ pub fn run(args: Args) -> Result<()> {
         None => draw_effect(args.seed),
     };
     let set = generate(&family, &effect, args.seed);
+    // Built aside and renamed into place whole: a killed run leaves no half-written set, and a
+    // folder holding anything but an earlier set is never replaced.
+    let staged = outfile::StagedDir::owning(&args.output, |n| {
+        matches!(n, "train" | "heldout" | "rig-sweep.csv" | "truth.json")
+    })?;
     for (sub, flights) in [("train", &set.train), ("heldout", &set.heldout)] {
-        let dir = args.output.join(sub);
+        let dir = staged.path().join(sub);
         std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
         for f in flights.iter() {
             output::write_atomic(&dir.join(format!("{}.csv", f.name)), f.csv.as_bytes())?;
             output::write_atomic(&dir.join(format!("{}.toml", f.name)), f.toml.as_bytes())?;
         }
     }
-    output::write_atomic(&args.output.join("rig-sweep.csv"), set.rig.csv().as_bytes())?;
-    let truth_path = args.output.join("truth.json");
     output::write_atomic(
-        &truth_path,
+        &staged.path().join("rig-sweep.csv"),
+        set.rig.csv().as_bytes(),
+    )?;
+    output::write_atomic(
+        &staged.path().join("truth.json"),
         serde_json::to_string_pretty(&set.truth)?.as_bytes(),
     )?;
+    staged.commit()?;
+    let truth_path = args.output.join("truth.json");
     println!(
         "wrote {} training and {} held-out flights of {} to {} (truth in {}: keep it away from the diagnosis)",
         set.train.len(),

@@ -160,8 +160,9 @@ impl SweepObserver for Progress {
                 self.bar
                     .set_prefix(format!("{} step {}{of}", self.label, step + 1));
                 self.bar.set_message(format!(
-                    "{}throttle {throttle_us} us, thrust {thrust_g:.1} g, {state}",
-                    target_g.map_or(String::new(), |t| format!("target {t} g, "))
+                    "{}throttle {throttle_us} us, thrust {}, {state}",
+                    target_g.map_or(String::new(), |t| format!("target {t} g, ")),
+                    thrust_g.map_or("not yet read".to_owned(), |t| format!("{t:.1} g"))
                 ));
             }
             SweepEvent::Step(r) => {

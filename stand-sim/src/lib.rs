@@ -93,6 +93,10 @@ pub struct World {
     esc_gamma: f64,
     truth: Truth,
     magnitude: f64,
+    /// Scale of the thermal resistances (1/scale of the heat capacities): a larger motor sheds
+    /// its heat through lower resistances; set so the steady winding rise at full throttle is
+    /// `40 + 100·magnitude` K, as motors are rated for.
+    thermal_scale: f64,
 }
 
 /// One scenario: the world, the truth, and its sweeps as CSV.
@@ -107,7 +111,7 @@ pub struct Scenario {
     /// How far the truth moves a fitted model's power, current or voltage on the held-out
     /// sweep (noise-free; see `fitted_impact`), fraction.
     pub power_impact: f64,
-    /// Training log: two up-sweeps, separated by a pause.
+    /// Training log: an up-and-down sweep and an up-sweep, separated by a pause.
     #[serde(skip)]
     pub train_csv: String,
     /// Held-out log: one up-and-down sweep.
@@ -283,10 +287,13 @@ impl World {
         for _ in 0..steps {
             if self.truth == Truth::WindingHeating {
                 // Two nodes: winding (small heat capacity) and case, cooled faster at speed.
-                let c_w = 8.0 / (1.0 + 3.0 * self.magnitude);
-                let c_c = 40.0;
-                let r_wc = 1.5 + 6.0 * self.magnitude;
-                let r_ca = 6.0 / (1.0 + op.rpm / 10_000.0);
+                // Resistances scale with the motor (`thermal_scale`), capacities inversely, so
+                // the time constants stay and the steady rise at full throttle is 40–140 K.
+                let f = self.thermal_scale;
+                let c_w = 8.0 / (1.0 + 3.0 * self.magnitude) / f;
+                let c_c = 40.0 / f;
+                let r_wc = (1.5 + 6.0 * self.magnitude) * f;
+                let r_ca = 6.0 / (1.0 + op.rpm / 10_000.0) * f;
                 let q_wc = (s.t_wind - s.t_case) / r_wc;
                 s.t_wind += h * (op.p_cu - q_wc) / c_w;
                 s.t_case += h * (q_wc - (s.t_case - 20.0) / r_ca) / c_c;
@@ -324,7 +331,7 @@ impl Scenario {
         let i_max = p_max / (0.8 * supply_v);
         let r20 = (0.04 + 0.08 * rng.random::<f64>()) * p_max / (i_max * i_max);
         let i0 = (0.02 + 0.04 * rng.random::<f64>()) * i_max;
-        let world = World {
+        let mut world = World {
             kv,
             r20,
             i0,
@@ -337,10 +344,28 @@ impl Scenario {
             esc_gamma: 0.8 + 0.4 * rng.random::<f64>(),
             truth,
             magnitude,
+            thermal_scale: 1.0,
         };
+        if truth == Truth::WindingHeating {
+            let cold = State {
+                soc: 1.0,
+                v_rc: 0.0,
+                t_wind: 20.0,
+                t_case: 20.0,
+                time_s: 0.0,
+                last_thrust_n: 0.0,
+            };
+            let full = world.operate(1.0, &cold);
+            let r_full = 1.5 + 6.0 * magnitude + 6.0 / (1.0 + full.rpm / 10_000.0);
+            world.thermal_scale = (40.0 + 100.0 * magnitude) / (full.p_cu.max(1e-6) * r_full);
+        }
         let capacity_ah = i_max / 15.0 * (1.0 + rng.random::<f64>());
         let mut noise = ChaCha8Rng::seed_from_u64(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15));
-        let train_sched = [up(10, 0.25), up(10, 0.28)];
+        // Training: an up-and-down sweep (as RCbenchmark step tests run), a pause, an up-sweep.
+        let mut first = up(10, 0.25);
+        let mut back: Vec<f64> = first.iter().rev().skip(1).copied().collect();
+        first.append(&mut back);
+        let train_sched = [first, up(10, 0.28)];
         let train_csv = simulate(&world, &train_sched, &mut noise, capacity_ah, 1.0, 1.0);
         let mut schedule = up(8, 0.3);
         let mut down: Vec<f64> = schedule.iter().rev().skip(1).copied().collect();

@@ -79,53 +79,36 @@ pub trait Supply {
     }
 }
 
-impl<S: Supply + ?Sized> Supply for &mut S {
-    fn identify(&mut self) -> Result<String, SupplyError> {
-        (**self).identify()
-    }
-    fn set_voltage(&mut self, voltage_v: f64) -> Result<(), SupplyError> {
-        (**self).set_voltage(voltage_v)
-    }
-    fn set_current_limit(&mut self, current_a: f64) -> Result<(), SupplyError> {
-        (**self).set_current_limit(current_a)
-    }
-    fn set_output(&mut self, on: bool) -> Result<(), SupplyError> {
-        (**self).set_output(on)
-    }
-    fn measure(&mut self) -> Result<Measurement, SupplyError> {
-        (**self).measure()
-    }
-    fn mode(&mut self) -> Result<RegulationMode, SupplyError> {
-        (**self).mode()
-    }
-    fn apply(&mut self, voltage_v: f64, current_limit_a: f64) -> Result<(), SupplyError> {
-        (**self).apply(voltage_v, current_limit_a)
-    }
+/// Forwards every [`Supply`] method through a pointer to a supply.
+macro_rules! forward_supply {
+    ($($pointer:ty),*) => {$(
+        impl<S: Supply + ?Sized> Supply for $pointer {
+            fn identify(&mut self) -> Result<String, SupplyError> {
+                (**self).identify()
+            }
+            fn set_voltage(&mut self, voltage_v: f64) -> Result<(), SupplyError> {
+                (**self).set_voltage(voltage_v)
+            }
+            fn set_current_limit(&mut self, current_a: f64) -> Result<(), SupplyError> {
+                (**self).set_current_limit(current_a)
+            }
+            fn set_output(&mut self, on: bool) -> Result<(), SupplyError> {
+                (**self).set_output(on)
+            }
+            fn measure(&mut self) -> Result<Measurement, SupplyError> {
+                (**self).measure()
+            }
+            fn mode(&mut self) -> Result<RegulationMode, SupplyError> {
+                (**self).mode()
+            }
+            fn apply(&mut self, voltage_v: f64, current_limit_a: f64) -> Result<(), SupplyError> {
+                (**self).apply(voltage_v, current_limit_a)
+            }
+        }
+    )*};
 }
 
-impl<S: Supply + ?Sized> Supply for Box<S> {
-    fn identify(&mut self) -> Result<String, SupplyError> {
-        (**self).identify()
-    }
-    fn set_voltage(&mut self, voltage_v: f64) -> Result<(), SupplyError> {
-        (**self).set_voltage(voltage_v)
-    }
-    fn set_current_limit(&mut self, current_a: f64) -> Result<(), SupplyError> {
-        (**self).set_current_limit(current_a)
-    }
-    fn set_output(&mut self, on: bool) -> Result<(), SupplyError> {
-        (**self).set_output(on)
-    }
-    fn measure(&mut self) -> Result<Measurement, SupplyError> {
-        (**self).measure()
-    }
-    fn mode(&mut self) -> Result<RegulationMode, SupplyError> {
-        (**self).mode()
-    }
-    fn apply(&mut self, voltage_v: f64, current_limit_a: f64) -> Result<(), SupplyError> {
-        (**self).apply(voltage_v, current_limit_a)
-    }
-}
+forward_supply!(&mut S, Box<S>);
 
 /// Sends a setting with `send`, then (when `verify`) reads it back with `check` — `None` when it
 /// took, else what was read — and sends it again until it took, at most `attempts` times.

@@ -5,6 +5,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use serde_json::Value;
+
 /// The `hoverbench` binary under test.
 pub fn bin() -> Command {
     Command::new(env!("CARGO_BIN_EXE_hoverbench"))
@@ -15,9 +17,8 @@ pub fn run(args: &[&str]) -> Output {
     bin().args(args).output().unwrap()
 }
 
-/// Runs `hoverbench ARGS`, asserts success and returns stdout.
-pub fn ok(args: &[&str]) -> String {
-    let out = run(args);
+/// Asserts that `hoverbench ARGS` succeeded and returns its stdout.
+pub fn success(args: &[&str], out: Output) -> String {
     assert!(
         out.status.success(),
         "hoverbench {args:?} failed:\n{}\n{}",
@@ -27,18 +28,69 @@ pub fn ok(args: &[&str]) -> String {
     String::from_utf8(out.stdout).unwrap()
 }
 
-/// A file of `tests/data`.
-pub fn data(name: &str) -> String {
-    let p: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data")
-        .join(name);
-    p.to_str().unwrap().to_owned()
+/// Runs `hoverbench ARGS`, asserts success and returns stdout.
+pub fn ok(args: &[&str]) -> String {
+    success(args, run(args))
 }
 
-/// A file of the shared real data (`../shared/data/real`).
+/// Runs `hoverbench ARGS`, asserts success and parses stdout as JSON.
+pub fn json(args: &[&str]) -> Value {
+    serde_json::from_str(&ok(args)).unwrap()
+}
+
+/// Runs `hoverbench ARGS`: (exit code, stdout, stderr), the code -1 when a signal ended it.
+pub fn outcome(args: &[&str]) -> (i32, String, String) {
+    let out = run(args);
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8(out.stdout).unwrap(),
+        String::from_utf8(out.stderr).unwrap(),
+    )
+}
+
+/// The workspace root (where the binary's `Cargo.toml` is).
+pub fn root() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A file of `tests/data`.
+pub fn data_path(name: &str) -> PathBuf {
+    root().join("tests/data").join(name)
+}
+
+/// A file of `tests/data`, as a string argument.
+pub fn data(name: &str) -> String {
+    data_path(name).to_str().unwrap().to_owned()
+}
+
+/// A file of the shared real data (`../shared/data/real`, which CI has beside the clone).
+pub fn shared_path(rel: &str) -> PathBuf {
+    root().join("../shared/data/real").join(rel)
+}
+
+/// A file of the shared real data, as a string argument.
 pub fn shared(rel: &str) -> String {
-    let p: PathBuf = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/real")
-        .join(rel);
-    p.to_str().unwrap().to_owned()
+    shared_path(rel).to_str().unwrap().to_owned()
+}
+
+/// The names of the entries of a folder, sorted.
+pub fn file_names(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+/// Asserts that an HTML report refers to nothing outside itself.
+pub fn assert_self_contained(html: &str) {
+    for bad in [
+        "http://", "https://", "file:", "<script", "<link", "<img", "@import", "url(",
+    ] {
+        assert!(
+            !html.contains(bad),
+            "the report refers outside itself: {bad:?}"
+        );
+    }
 }

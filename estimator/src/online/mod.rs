@@ -1,0 +1,1051 @@
+//! In flight: the remaining endurance of a hovering robot from its live battery voltage (and
+//! current, when logged), fusing the rig's power model (eqs. 1–6) with a battery model that
+//! adapts to the pack actually flown.
+//!
+//! `no_std`, no allocation, fixed-size state ([`OnlineEstimator::STATE_SIZE_BYTES`] bytes):
+//! the same code runs in flight firmware (through the C interface of the `estimator-c` crate)
+//! and in `hoverbench replay`.
+//!
+//! # The filter
+//! An extended Kalman filter over five states:
+//!
+//! | state | meaning |
+//! |---|---|
+//! | `soc` | state of charge, 0..1 of the usable capacity |
+//! | `v_rc_v` | voltage across the pack's RC pair, V |
+//! | `r_scale` | series resistance over the battery model's (fade, cold) |
+//! | `c_scale` | usable capacity over the rated one (fade, cold) |
+//! | `extra_power_w` | electrical power above the model's hover power (payload, control overhead), W |
+//!
+//! The measurement is the terminal voltage `V = n·OCV(soc) − I·n·R₀·r_scale − v_rc`. When the
+//! current is logged it drives the charge counting (`d soc/dt = −I / (3600·Q·c_scale)`) and its
+//! product with the voltage measures the power draw directly (a second, scalar update of
+//! `extra_power_w` in hover). When it is not, the current is the one that delivers the model's
+//! power from the pack, `P = p_M(m_T) + p_I + extra_power_w` (eqs. 1, 2 and 4's denominator; the
+//! smaller root of `R·I² − E·I + P = 0`), so the filter learns `extra_power_w` and the capacity
+//! from how fast the voltage falls. The RC pair relaxes with its time constant towards
+//! `I·n·R₁`. Capacity, resistance and extra power are random walks.
+//!
+//! # The prediction
+//! From the current state the pack is discharged forward at the power of the current phase
+//! (hover power + extra power in flight; `p_I` attached, as eq. 6) in at most
+//! [`MAX_SIM_STEPS`] state-of-charge steps (midpoint rule) until the terminal voltage under that
+//! load reaches the cut-off, or the pack can no longer deliver the power: that time is
+//! [`Estimate::remaining_phase_s`]. With a mission plan ([`OnlineEstimator::set_plan`]) the
+//! remainder of the plan is flown the same way, segment after segment: eqs. (7)–(9) with `c_B`
+//! replaced by the charge left in the estimated state, attached segments spending `p_I` (the
+//! energy balance form of eq. 8), and `t_R` (eq. 9) the hover time left after the plan's last
+//! segment ([`Estimate::plan_reserve_s`]). The one-sigma bands come from the same integration
+//! at the state's sigma points (mean ± each column of the covariance's Cholesky factor), plus
+//! a model-error floor ([`OnlineConfig::prediction_model_sigma_fraction`]).
+//!
+//! ```
+//! use estimator::online::{BatteryModel, FlightPhase, OnlineConfig, OnlineEstimator, Sample, Vehicle};
+//! use estimator::{Params, PolyCurve};
+//!
+//! let curve = PolyCurve::new(&[10.0, 12.0, 3.0], 130.0, 130.0, (0.0, 260.0), Some(12.5))?;
+//! let params = Params { rotor_count: 4, curve, thrust_limit: None, battery: None, vehicle: None };
+//! let battery = BatteryModel::lipo(3, 2.2)?;
+//! let config = OnlineConfig {
+//!     vehicle: Some(Vehicle {
+//!         structure_mass_kg: 0.43,
+//!         battery_mass_kg: 0.17,
+//!         payload_mass_kg: 0.0,
+//!         avionics_power_w: 2.4,
+//!         payload_power_w: 0.0,
+//!     }),
+//!     ..OnlineConfig::default()
+//! };
+//! let mut est = OnlineEstimator::new(&params, &battery, &config)?;
+//! let e = est.update(&Sample { time_s: 0.0, voltage_v: 12.3, current_a: None, phase: Some(FlightPhase::Hover) });
+//! assert!(e.remaining_phase_s > 0.0 && e.soc > 0.5);
+//! # Ok::<(), estimator::EstimateError>(())
+//! ```
+
+mod battery;
+mod predict;
+
+pub use battery::{
+    BatteryModel, Chemistry, DEFAULT_CUTOFF_CELL_V, DEFAULT_SERIES_RESISTANCE_CELL_OHM,
+    LIPO_OCV_CELL_V, OCV_KNOTS, Vehicle,
+};
+pub use predict::MAX_SIM_STEPS;
+
+use nalgebra::{SMatrix, SVector};
+
+use crate::curve::require_positive;
+use crate::mission::{MissionOptions, Segment};
+use crate::{EstimateError, Params};
+use predict::{Pack, SimSegment};
+
+/// Number of filter states.
+pub const STATES: usize = 5;
+/// Longest mission plan the estimator holds, segments.
+pub const MAX_PLAN_SEGMENTS: usize = 16;
+
+type Vector = SVector<f64, STATES>;
+type Matrix = SMatrix<f64, STATES, STATES>;
+
+const SOC: usize = 0;
+const VRC: usize = 1;
+const RSCALE: usize = 2;
+const CSCALE: usize = 3;
+const PEXTRA: usize = 4;
+
+/// A current beyond this is a sensor fault, not a reading, A.
+const MAX_CURRENT_A: f64 = 2000.0;
+
+/// What the robot is doing at a sample (the phases `flightlog` infers or reads).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+pub enum FlightPhase {
+    /// On the ground, motors off or idling: the pack delivers `p_I` (eq. 2).
+    Ground = 1,
+    /// Hovering or flying level: `p_M + p_I` (eq. 4).
+    Hover = 2,
+    /// Climbing (taken at hover power).
+    Climb = 3,
+    /// Descending (taken at hover power).
+    Descend = 4,
+    /// Attached to the ceiling, motors off: `p_I` (eq. 6).
+    Attached = 5,
+    /// Take-off, landing, attaching, detaching (taken at hover power).
+    Transition = 6,
+}
+
+impl FlightPhase {
+    /// The phase of a code (the `#[repr(u8)]` value; 0 and unknown codes: `None`).
+    pub fn from_code(code: u8) -> Option<Self> {
+        Some(match code {
+            1 => Self::Ground,
+            2 => Self::Hover,
+            3 => Self::Climb,
+            4 => Self::Descend,
+            5 => Self::Attached,
+            6 => Self::Transition,
+            _ => return None,
+        })
+    }
+
+    /// True when the rotors carry the robot.
+    pub fn is_flying(self) -> bool {
+        !matches!(self, Self::Ground | Self::Attached)
+    }
+}
+
+/// One logged sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sample {
+    /// Time, s (strictly increasing from sample to sample).
+    pub time_s: f64,
+    /// Pack terminal voltage, V.
+    pub voltage_v: f64,
+    /// Pack current, A, when logged (discharge positive).
+    pub current_a: Option<f64>,
+    /// Phase, when known; without it the last known phase holds (hover at the start).
+    pub phase: Option<FlightPhase>,
+}
+
+/// Noise levels and tuning of the filter. The defaults suit hobby packs logged at 1–100 Hz.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OnlineConfig {
+    /// The robot (masses and powers of eqs. 1–2); overrides the parameters' `[vehicle]`
+    /// section. One of the two is required.
+    pub vehicle: Option<Vehicle>,
+    /// Cut-off voltage per cell under load, V; overrides the battery model's.
+    pub cutoff_cell_v: Option<f64>,
+    /// Standard deviation of a voltage reading (noise and unmodelled fast dynamics), V.
+    pub voltage_sigma_v: f64,
+    /// Standard deviation of a current reading, A.
+    pub current_sigma_a: f64,
+    /// Standard deviation of one sample's power draw around its mean, as a fraction of the
+    /// hover power (gusts, manoeuvres): the noise of the power update with a logged current.
+    pub power_sigma_fraction: f64,
+    /// Least initial standard deviation of the state of charge read from the first voltage.
+    pub initial_soc_sigma: f64,
+    /// Initial standard deviation of the resistance scale.
+    pub resistance_scale_sigma: f64,
+    /// Initial standard deviation of the capacity scale.
+    pub capacity_scale_sigma: f64,
+    /// Initial standard deviation of the extra power, as a fraction of the hover power.
+    pub extra_power_sigma_fraction: f64,
+    /// Random walk of the resistance scale, per √s.
+    pub resistance_drift_per_sqrt_s: f64,
+    /// Random walk of the capacity scale, per √s.
+    pub capacity_drift_per_sqrt_s: f64,
+    /// Random walk of the extra power, as a fraction of the hover power per √s.
+    pub extra_power_drift_fraction_per_sqrt_s: f64,
+    /// A voltage whose innovation exceeds this many standard deviations is set aside as an
+    /// outlier (after [`Self::outliers_before_resync`] in a row the filter resynchronises).
+    pub outlier_gate_sigma: f64,
+    /// Consecutive outliers after which the filter accepts the measurement again and widens
+    /// its state of charge.
+    pub outliers_before_resync: u32,
+    /// Longest step of the time update, s (longer gaps are split).
+    pub max_step_s: f64,
+    /// A gap between samples longer than this is flagged ([`Estimate::FLAG_GAP`]), s.
+    pub gap_s: f64,
+    /// The prediction (the forward integrations) is recomputed at most this often, s; in
+    /// between an update costs only the filter step. 0: every update.
+    pub prediction_interval_s: f64,
+    /// Model error of a predicted remaining time, as a fraction of it, added in quadrature to
+    /// the spread of the state's sigma points.
+    pub prediction_model_sigma_fraction: f64,
+}
+
+impl Default for OnlineConfig {
+    fn default() -> Self {
+        Self {
+            vehicle: None,
+            cutoff_cell_v: None,
+            voltage_sigma_v: 0.05,
+            current_sigma_a: 0.2,
+            power_sigma_fraction: 0.05,
+            initial_soc_sigma: 0.03,
+            resistance_scale_sigma: 0.4,
+            capacity_scale_sigma: 0.15,
+            extra_power_sigma_fraction: 0.15,
+            resistance_drift_per_sqrt_s: 2e-3,
+            capacity_drift_per_sqrt_s: 2e-4,
+            extra_power_drift_fraction_per_sqrt_s: 2e-3,
+            outlier_gate_sigma: 6.0,
+            outliers_before_resync: 10,
+            max_step_s: 2.0,
+            gap_s: 10.0,
+            prediction_interval_s: 1.0,
+            prediction_model_sigma_fraction: 0.02,
+        }
+    }
+}
+
+impl OnlineConfig {
+    fn validate(&self) -> Result<(), EstimateError> {
+        for (what, v) in [
+            ("voltage sigma (V)", self.voltage_sigma_v),
+            ("current sigma (A)", self.current_sigma_a),
+            ("power sigma fraction", self.power_sigma_fraction),
+            ("initial state-of-charge sigma", self.initial_soc_sigma),
+            ("resistance scale sigma", self.resistance_scale_sigma),
+            ("capacity scale sigma", self.capacity_scale_sigma),
+            (
+                "extra power sigma fraction",
+                self.extra_power_sigma_fraction,
+            ),
+            ("outlier gate (sigma)", self.outlier_gate_sigma),
+            ("longest time step (s)", self.max_step_s),
+            ("gap (s)", self.gap_s),
+        ] {
+            require_positive(what, v)?;
+        }
+        for (what, v) in [
+            ("resistance drift", self.resistance_drift_per_sqrt_s),
+            ("capacity drift", self.capacity_drift_per_sqrt_s),
+            (
+                "extra power drift",
+                self.extra_power_drift_fraction_per_sqrt_s,
+            ),
+            ("prediction interval (s)", self.prediction_interval_s),
+            (
+                "prediction model sigma",
+                self.prediction_model_sigma_fraction,
+            ),
+        ] {
+            crate::curve::require_non_negative(what, v)?;
+        }
+        if let Some(c) = self.cutoff_cell_v {
+            require_positive("cut-off voltage (V per cell)", c)?;
+        }
+        Ok(())
+    }
+}
+
+/// What the estimator knows after a sample. Every number is finite; [`Self::flags`] says when
+/// one is only a placeholder.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Estimate {
+    /// Time of the last accepted sample, s.
+    pub time_s: f64,
+    /// Remaining endurance in the current phase, s: how long the robot can keep hovering
+    /// (eq. 4 on the estimated pack; on the ground: once it takes off), or stay attached
+    /// (eq. 6), until the cut-off.
+    pub remaining_phase_s: f64,
+    /// Its one-sigma band, s.
+    pub remaining_phase_sigma_s: f64,
+    /// Remaining time of the mission plan, s: until its last segment ends or the pack reaches
+    /// the cut-off, whichever comes first (eqs. 7–9). `None` without a plan.
+    pub remaining_plan_s: Option<f64>,
+    /// Its one-sigma band, s.
+    pub remaining_plan_sigma_s: Option<f64>,
+    /// `t_R` (eq. 9): hover time left after the plan's last segment, s (0 when the plan does
+    /// not complete).
+    pub plan_reserve_s: Option<f64>,
+    /// Whether the plan's remainder completes before the cut-off.
+    pub plan_completes: Option<bool>,
+    /// State of charge, 0..1 of the usable capacity.
+    pub soc: f64,
+    /// Its one-sigma band.
+    pub soc_sigma: f64,
+    /// Usable capacity of the pack, Ah.
+    pub usable_capacity_ah: f64,
+    /// Its one-sigma band, Ah.
+    pub usable_capacity_sigma_ah: f64,
+    /// Series resistance of the pack, Ω.
+    pub series_resistance_ohm: f64,
+    /// Its one-sigma band, Ω.
+    pub series_resistance_sigma_ohm: f64,
+    /// Electrical power above the model's hover power, W.
+    pub extra_power_w: f64,
+    /// Its one-sigma band, W.
+    pub extra_power_sigma_w: f64,
+    /// Power the current phase is predicted at, W.
+    pub phase_power_w: f64,
+    /// Current through the pack at the last sample (logged, or the model's), A.
+    pub current_a: f64,
+    /// Voltage innovation of the last accepted sample (measured − predicted), V.
+    pub voltage_residual_v: f64,
+    /// Samples used.
+    pub samples_used: u32,
+    /// Samples set aside (garbage, out of order, outliers).
+    pub samples_rejected: u32,
+    /// Bit set of `FLAG_*` conditions.
+    pub flags: u32,
+}
+
+impl Estimate {
+    /// No sample accepted yet: every number is a placeholder (zero).
+    pub const FLAG_NOT_INITIALISED: u32 = 1;
+    /// The last sample was set aside: not finite, implausible, or not later than the one
+    /// before.
+    pub const FLAG_REJECTED: u32 = 1 << 1;
+    /// The last sample's voltage was an outlier and did not update the state.
+    pub const FLAG_OUTLIER: u32 = 1 << 2;
+    /// The last sample came after a gap longer than [`OnlineConfig::gap_s`].
+    pub const FLAG_GAP: u32 = 1 << 3;
+    /// The pack is at or below its cut-off voltage.
+    pub const FLAG_AT_CUTOFF: u32 = 1 << 4;
+    /// The pack cannot deliver the current phase's power any more.
+    pub const FLAG_POWER_UNREACHABLE: u32 = 1 << 5;
+    /// The filter resynchronised after a run of outliers.
+    pub const FLAG_RESYNC: u32 = 1 << 6;
+    /// A forward integration stopped at [`MAX_SIM_STEPS`]: the remaining time is a lower
+    /// bound.
+    pub const FLAG_TRUNCATED: u32 = 1 << 7;
+
+    /// True once a sample has been accepted.
+    pub fn is_valid(&self) -> bool {
+        self.flags & Self::FLAG_NOT_INITIALISED == 0
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Prediction {
+    time_s: f64,
+    phase_s: f64,
+    phase_sigma_s: f64,
+    phase_power_w: f64,
+    plan: Option<PlanPrediction>,
+    flags: u32,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct PlanPrediction {
+    remaining_s: f64,
+    sigma_s: f64,
+    reserve_s: f64,
+    completes: bool,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Plan {
+    segments: [Segment; MAX_PLAN_SEGMENTS],
+    len: usize,
+    index: usize,
+    time_in_segment_s: f64,
+    floor_soc: f64,
+}
+
+/// The online endurance estimator: fixed-size state, no allocation, `Copy`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OnlineEstimator {
+    pack: Pack,
+    hover_power_w: f64,
+    idle_power_w: f64,
+    config: OnlineConfig,
+    x: Vector,
+    p: Matrix,
+    initialised: bool,
+    last_time_s: f64,
+    phase: FlightPhase,
+    current_a: f64,
+    residual_v: f64,
+    outliers_in_row: u32,
+    samples_used: u32,
+    samples_rejected: u32,
+    flags: u32,
+    plan: Option<Plan>,
+    prediction: Option<Prediction>,
+}
+
+impl OnlineEstimator {
+    /// Bytes of the estimator's whole state (`core::mem::size_of::<OnlineEstimator>()`): what
+    /// firmware must reserve.
+    pub const STATE_SIZE_BYTES: usize = core::mem::size_of::<OnlineEstimator>();
+
+    /// See [`Self::STATE_SIZE_BYTES`].
+    pub const fn state_size_bytes() -> usize {
+        Self::STATE_SIZE_BYTES
+    }
+
+    /// An estimator for the rig curve in `params`, the pack `battery` and the robot in
+    /// `config.vehicle` (else `params.vehicle`). Fails when the vehicle is missing, a value is
+    /// invalid, or the hover thrust lies outside the measured curve.
+    pub fn new(
+        params: &Params,
+        battery: &BatteryModel,
+        config: &OnlineConfig,
+    ) -> Result<Self, EstimateError> {
+        config.validate()?;
+        battery.validate()?;
+        let vehicle = config
+            .vehicle
+            .or(params.vehicle)
+            .ok_or(EstimateError::Missing {
+                what: "the vehicle (masses and powers, eqs. 1–2: a [vehicle] section or OnlineConfig::vehicle)",
+            })?;
+        vehicle.validate()?;
+        let model = params.model(vehicle.structure_mass_kg, vehicle.avionics_power_w);
+        let m_t = vehicle.total_mass_kg();
+        let idle = vehicle.idle_power_w();
+        let hover = model.motor_power_w(m_t)? + idle;
+        if !(hover.is_finite() && hover > 0.0) {
+            return Err(EstimateError::NonPositivePower {
+                power_w: hover,
+                total_mass_kg: m_t,
+            });
+        }
+        let mut battery = *battery;
+        if let Some(c) = config.cutoff_cell_v {
+            battery.cutoff_cell_v = c;
+            battery.validate()?;
+        }
+        let pack = Pack::new(&battery);
+        Ok(Self {
+            pack,
+            hover_power_w: hover,
+            idle_power_w: idle,
+            config: *config,
+            x: Vector::zeros(),
+            p: Matrix::zeros(),
+            initialised: false,
+            last_time_s: 0.0,
+            phase: FlightPhase::Hover,
+            current_a: 0.0,
+            residual_v: 0.0,
+            outliers_in_row: 0,
+            samples_used: 0,
+            samples_rejected: 0,
+            flags: Estimate::FLAG_NOT_INITIALISED,
+            plan: None,
+            prediction: None,
+        })
+    }
+
+    /// An estimator from parameters alone: their `[battery]` and `[vehicle]` sections.
+    pub fn from_params(params: &Params, config: &OnlineConfig) -> Result<Self, EstimateError> {
+        let battery = params.battery.ok_or(EstimateError::Missing {
+            what: "the battery model (a [battery] section)",
+        })?;
+        Self::new(params, &battery, config)
+    }
+
+    /// Model hover power `p_M(m_T) + p_I` (eqs. 1, 2, 4), W.
+    pub fn model_hover_power_w(&self) -> f64 {
+        self.hover_power_w
+    }
+
+    /// Idle power `p_I` (eq. 2), W.
+    pub fn idle_power_w(&self) -> f64 {
+        self.idle_power_w
+    }
+
+    /// Flies `plan` from the next sample on (its segments progress with the samples' clock;
+    /// "until reserve" segments end when the estimated state of charge reaches their reserve).
+    /// `options.reserve_floor_fraction` is a floor of state of charge no segment goes below;
+    /// `options.eq8` is not used: attached segments spend `p_I`, the energy balance of eq. (8).
+    pub fn set_plan(
+        &mut self,
+        plan: &[Segment],
+        options: &MissionOptions,
+    ) -> Result<(), EstimateError> {
+        if plan.len() > MAX_PLAN_SEGMENTS {
+            return Err(EstimateError::PlanTooLong {
+                segments: plan.len(),
+                max: MAX_PLAN_SEGMENTS,
+            });
+        }
+        if plan.is_empty() {
+            return Err(EstimateError::Missing {
+                what: "a plan segment",
+            });
+        }
+        // The mission code's own checks (durations, reserve fractions, floor).
+        let floor = options.reserve_floor_fraction;
+        crate::curve::require_finite("reserve floor fraction", floor)?;
+        if !(0.0..1.0).contains(&floor) {
+            return Err(EstimateError::ReserveFraction { value: floor });
+        }
+        let mut segments = [Segment::HoverUntilEmpty; MAX_PLAN_SEGMENTS];
+        for (slot, s) in segments.iter_mut().zip(plan) {
+            s.validate()?;
+            *slot = *s;
+        }
+        self.plan = Some(Plan {
+            segments,
+            len: plan.len(),
+            index: 0,
+            time_in_segment_s: 0.0,
+            floor_soc: floor,
+        });
+        self.prediction = None;
+        Ok(())
+    }
+
+    /// Forgets the plan.
+    pub fn clear_plan(&mut self) {
+        self.plan = None;
+        self.prediction = None;
+    }
+
+    /// Index of the plan segment being flown, when there is a plan and it is not over.
+    pub fn plan_segment(&self) -> Option<usize> {
+        self.plan.filter(|p| p.index < p.len).map(|p| p.index)
+    }
+
+    /// Takes one sample and returns the estimate after it. Never panics; a sample that cannot
+    /// be used is counted and flagged ([`Estimate::FLAG_REJECTED`]) and leaves the state as it
+    /// was.
+    pub fn update(&mut self, sample: &Sample) -> Estimate {
+        self.flags &= Estimate::FLAG_NOT_INITIALISED;
+        let n = self.pack.cells;
+        let plausible_v = sample.voltage_v.is_finite()
+            && sample.voltage_v >= 0.5 * n
+            && sample.voltage_v <= 1.15 * n * self.pack.battery.ocv_cell_v[OCV_KNOTS - 1];
+        let later = !self.initialised || sample.time_s > self.last_time_s;
+        if !(sample.time_s.is_finite() && plausible_v && later) {
+            self.samples_rejected = self.samples_rejected.saturating_add(1);
+            self.flags |= Estimate::FLAG_REJECTED;
+            return self.estimate();
+        }
+        if let Some(ph) = sample.phase {
+            self.phase = ph;
+        }
+        let logged = sample
+            .current_a
+            .filter(|i| i.is_finite() && i.abs() <= MAX_CURRENT_A);
+        if !self.initialised {
+            self.initialise(sample.time_s, sample.voltage_v, logged);
+        } else {
+            let dt = sample.time_s - self.last_time_s;
+            if dt > self.config.gap_s {
+                self.flags |= Estimate::FLAG_GAP;
+            }
+            self.advance_plan(dt);
+            self.time_update(dt, logged);
+            self.voltage_update(sample.voltage_v, logged);
+            if let Some(i) = logged {
+                self.power_update(sample.voltage_v * i);
+            }
+        }
+        self.last_time_s = sample.time_s;
+        self.samples_used = self.samples_used.saturating_add(1);
+        self.current_a = match logged {
+            Some(i) => i,
+            None => self.model_current(&self.x).0,
+        };
+        if sample.voltage_v <= self.pack.cutoff_v && self.phase.is_flying() {
+            self.flags |= Estimate::FLAG_AT_CUTOFF;
+        }
+        let due = match self.prediction {
+            None => true,
+            Some(p) => sample.time_s - p.time_s >= self.config.prediction_interval_s,
+        };
+        if due {
+            self.prediction = Some(self.predict(sample.time_s));
+        }
+        self.estimate()
+    }
+
+    /// The estimate after the last sample (what [`Self::update`] returned).
+    pub fn estimate(&self) -> Estimate {
+        let sd = |k: usize| libm::sqrt(self.p[(k, k)].max(0.0));
+        if !self.initialised {
+            return Estimate {
+                time_s: 0.0,
+                remaining_phase_s: 0.0,
+                remaining_phase_sigma_s: 0.0,
+                remaining_plan_s: None,
+                remaining_plan_sigma_s: None,
+                plan_reserve_s: None,
+                plan_completes: None,
+                soc: 0.0,
+                soc_sigma: 0.0,
+                usable_capacity_ah: 0.0,
+                usable_capacity_sigma_ah: 0.0,
+                series_resistance_ohm: 0.0,
+                series_resistance_sigma_ohm: 0.0,
+                extra_power_w: 0.0,
+                extra_power_sigma_w: 0.0,
+                phase_power_w: 0.0,
+                current_a: 0.0,
+                voltage_residual_v: 0.0,
+                samples_used: 0,
+                samples_rejected: self.samples_rejected,
+                flags: self.flags | Estimate::FLAG_NOT_INITIALISED,
+            };
+        }
+        let pr = self.prediction.unwrap_or(Prediction {
+            time_s: self.last_time_s,
+            phase_s: 0.0,
+            phase_sigma_s: 0.0,
+            phase_power_w: 0.0,
+            plan: None,
+            flags: 0,
+        });
+        // The prediction may be up to `prediction_interval_s` old: age it by the time since.
+        let age = (self.last_time_s - pr.time_s).max(0.0);
+        let q = self.pack.capacity_ah;
+        let r = self.pack.r0_ohm;
+        Estimate {
+            time_s: self.last_time_s,
+            remaining_phase_s: (pr.phase_s - age).max(0.0),
+            remaining_phase_sigma_s: pr.phase_sigma_s,
+            remaining_plan_s: pr.plan.map(|p| (p.remaining_s - age).max(0.0)),
+            remaining_plan_sigma_s: pr.plan.map(|p| p.sigma_s),
+            plan_reserve_s: pr.plan.map(|p| p.reserve_s),
+            plan_completes: pr.plan.map(|p| p.completes),
+            soc: self.x[SOC],
+            soc_sigma: sd(SOC),
+            usable_capacity_ah: q * self.x[CSCALE],
+            usable_capacity_sigma_ah: q * sd(CSCALE),
+            series_resistance_ohm: r * self.x[RSCALE],
+            series_resistance_sigma_ohm: r * sd(RSCALE),
+            extra_power_w: self.x[PEXTRA],
+            extra_power_sigma_w: sd(PEXTRA),
+            phase_power_w: pr.phase_power_w,
+            current_a: self.current_a,
+            voltage_residual_v: self.residual_v,
+            samples_used: self.samples_used,
+            samples_rejected: self.samples_rejected,
+            flags: self.flags | pr.flags,
+        }
+    }
+
+    /// Power the pack delivers in `phase` with the state's extra power, W.
+    fn power_w(&self, phase: FlightPhase, x: &Vector) -> f64 {
+        let p = if phase.is_flying() {
+            self.hover_power_w + x[PEXTRA]
+        } else {
+            self.idle_power_w
+        };
+        p.max(0.05)
+    }
+
+    /// Current the model draws at state `x` in the current phase, and whether the pack can
+    /// deliver that power.
+    fn model_current(&self, x: &Vector) -> (f64, bool) {
+        let e = self.pack.ocv_v(x[SOC]) - x[VRC];
+        self.pack
+            .current_for_power(e, self.pack.r0_ohm * x[RSCALE], self.power_w(self.phase, x))
+    }
+
+    fn initialise(&mut self, t: f64, v: f64, logged: Option<f64>) {
+        let c = &self.config;
+        let r0 = self.pack.r0_ohm;
+        let r1 = self.pack.r1_ohm;
+        let p = self.power_w(self.phase, &Vector::zeros());
+        let i = logged.unwrap_or(p / v);
+        // At the first sample the RC pair is taken as settled at this current.
+        let e = v + i * (r0 + r1);
+        let s0 = self.pack.battery.soc_for_ocv_cell(e / self.pack.cells);
+        let (_, slope) = self.pack.ocv_and_slope(s0);
+        // Voltage uncertainty of the open-circuit reading: noise, and the resistance's
+        // uncertainty times the current.
+        let sigma_e = libm::sqrt(
+            c.voltage_sigma_v * c.voltage_sigma_v
+                + (i * r0 * c.resistance_scale_sigma) * (i * r0 * c.resistance_scale_sigma)
+                + (i * r1 * 0.5) * (i * r1 * 0.5),
+        );
+        let soc_sigma = (sigma_e / slope.max(1e-3)).clamp(c.initial_soc_sigma, 0.5);
+        self.x = Vector::from([s0, i * r1, 1.0, 1.0, 0.0]);
+        let pe_sigma = c.extra_power_sigma_fraction * self.hover_power_w;
+        let vrc_sigma = 0.5 * i.abs() * r1 + 1e-3;
+        self.p = Matrix::from_diagonal(&Vector::from([
+            soc_sigma * soc_sigma,
+            vrc_sigma * vrc_sigma,
+            c.resistance_scale_sigma * c.resistance_scale_sigma,
+            c.capacity_scale_sigma * c.capacity_scale_sigma,
+            pe_sigma * pe_sigma,
+        ]));
+        self.initialised = true;
+        self.flags &= !Estimate::FLAG_NOT_INITIALISED;
+        self.last_time_s = t;
+        self.residual_v = 0.0;
+    }
+
+    /// State after `dt` at current `logged` (or the model's), eq-free charge counting and RC
+    /// relaxation.
+    fn transition(&self, x: &Vector, dt: f64, logged: Option<f64>) -> Vector {
+        let i = logged.unwrap_or_else(|| self.model_current(x).0);
+        let q_as = 3600.0 * self.pack.capacity_ah * x[CSCALE].max(0.05);
+        let mut y = *x;
+        y[SOC] = x[SOC] - i * dt / q_as;
+        let target = i * self.pack.r1_ohm;
+        let a = if self.pack.tau_s > 0.0 {
+            libm::exp(-dt / self.pack.tau_s)
+        } else {
+            0.0
+        };
+        y[VRC] = target + (x[VRC] - target) * a;
+        y
+    }
+
+    fn time_update(&mut self, dt: f64, logged: Option<f64>) {
+        let c = self.config;
+        let steps = libm::ceil(dt / c.max_step_s).clamp(1.0, 64.0);
+        let h = dt / steps;
+        for _ in 0..steps as usize {
+            let fx = self.transition(&self.x, h, logged);
+            let mut f = Matrix::identity();
+            for j in 0..STATES {
+                let d = self.diff_step(j);
+                let mut xp = self.x;
+                xp[j] += d;
+                let col = (self.transition(&xp, h, logged) - fx) / d;
+                f.set_column(j, &col);
+            }
+            let q_as = 3600.0 * self.pack.capacity_ah * self.x[CSCALE].max(0.05);
+            let i_sigma = if logged.is_some() {
+                c.current_sigma_a
+            } else {
+                // The model's current varies sample to sample like the power does.
+                c.power_sigma_fraction * self.hover_power_w / (self.pack.cells * 3.7)
+            };
+            let mut q = Matrix::zeros();
+            q[(SOC, SOC)] = (i_sigma * h / q_as) * (i_sigma * h / q_as) + 1e-10 * h;
+            q[(VRC, VRC)] =
+                (i_sigma * self.pack.r1_ohm) * (i_sigma * self.pack.r1_ohm) * 0.1 + 1e-8 * h;
+            q[(RSCALE, RSCALE)] = c.resistance_drift_per_sqrt_s * c.resistance_drift_per_sqrt_s * h;
+            q[(CSCALE, CSCALE)] = c.capacity_drift_per_sqrt_s * c.capacity_drift_per_sqrt_s * h;
+            let pe = c.extra_power_drift_fraction_per_sqrt_s * self.hover_power_w;
+            q[(PEXTRA, PEXTRA)] = pe * pe * h;
+            self.x = fx;
+            self.p = f * self.p * f.transpose() + q;
+            self.condition();
+        }
+    }
+
+    fn diff_step(&self, j: usize) -> f64 {
+        match j {
+            SOC => 1e-5,
+            VRC => 1e-4,
+            RSCALE | CSCALE => 1e-5,
+            _ => 1e-4 * self.hover_power_w.max(1.0),
+        }
+    }
+
+    /// Predicted terminal voltage at state `x`.
+    fn measure(&self, x: &Vector, logged: Option<f64>) -> f64 {
+        let e = self.pack.ocv_v(x[SOC]) - x[VRC];
+        let r = self.pack.r0_ohm * x[RSCALE];
+        match logged {
+            Some(i) => e - i * r,
+            None => {
+                let (i, _) = self.model_current(x);
+                e - i * r
+            }
+        }
+    }
+
+    fn voltage_update(&mut self, v: f64, logged: Option<f64>) {
+        let c = self.config;
+        let hx = self.measure(&self.x, logged);
+        let mut h = SMatrix::<f64, 1, STATES>::zeros();
+        for j in 0..STATES {
+            let d = self.diff_step(j);
+            let mut xp = self.x;
+            let mut xm = self.x;
+            xp[j] += d;
+            xm[j] -= d;
+            h[j] = (self.measure(&xp, logged) - self.measure(&xm, logged)) / (2.0 * d);
+        }
+        let y = v - hx;
+        let r = c.voltage_sigma_v * c.voltage_sigma_v;
+        let s = (h * self.p * h.transpose())[0] + r;
+        if y * y > c.outlier_gate_sigma * c.outlier_gate_sigma * s {
+            self.outliers_in_row += 1;
+            if self.outliers_in_row < c.outliers_before_resync {
+                self.flags |= Estimate::FLAG_OUTLIER;
+                self.samples_rejected = self.samples_rejected.saturating_add(1);
+                return;
+            }
+            // The voltage has really moved away: widen the state of charge and take it.
+            self.flags |= Estimate::FLAG_RESYNC;
+            self.p[(SOC, SOC)] += 0.01;
+            self.p[(VRC, VRC)] += 0.01;
+        }
+        self.outliers_in_row = 0;
+        self.residual_v = y;
+        self.scalar_update(&h, y, r);
+    }
+
+    fn power_update(&mut self, measured_w: f64) {
+        if !self.phase.is_flying() || !measured_w.is_finite() {
+            return;
+        }
+        // The power model holds in hover; climbs and descents draw more and less.
+        if self.phase != FlightPhase::Hover {
+            return;
+        }
+        let mut h = SMatrix::<f64, 1, STATES>::zeros();
+        h[PEXTRA] = 1.0;
+        let y = measured_w - self.power_w(self.phase, &self.x);
+        let sd = self.config.power_sigma_fraction * self.hover_power_w;
+        let s = self.p[(PEXTRA, PEXTRA)] + sd * sd;
+        if y * y > self.config.outlier_gate_sigma * self.config.outlier_gate_sigma * s {
+            return;
+        }
+        self.scalar_update(&h, y, sd * sd);
+    }
+
+    /// Joseph-form update with one scalar measurement.
+    fn scalar_update(&mut self, h: &SMatrix<f64, 1, STATES>, y: f64, r: f64) {
+        let ph = self.p * h.transpose();
+        let s = (h * ph)[0] + r;
+        if !(s.is_finite() && s > 0.0) {
+            return;
+        }
+        let k = ph / s;
+        let ikh = Matrix::identity() - k * h;
+        let x = self.x + k * y;
+        let p = ikh * self.p * ikh.transpose() + k * k.transpose() * r;
+        if x.iter().all(|v| v.is_finite()) && p.iter().all(|v| v.is_finite()) {
+            self.x = x;
+            self.p = p;
+        }
+        self.condition();
+    }
+
+    /// Keeps the state within physical bounds and the covariance symmetric and bounded.
+    fn condition(&mut self) {
+        let hover = self.hover_power_w;
+        let vmax = self.pack.ocv_v(1.0);
+        let lo = [0.0, -0.5 * vmax, 0.1, 0.2, -0.8 * hover];
+        let hi = [1.0, 0.5 * vmax, 10.0, 2.0, 3.0 * hover];
+        let sd_max = [0.5, 0.5 * vmax, 3.0, 0.6, 2.0 * hover];
+        let sd_min = [1e-5, 1e-5, 1e-4, 1e-4, 1e-4 * hover];
+        for k in 0..STATES {
+            let v = self.x[k];
+            self.x[k] = if v.is_finite() {
+                v.clamp(lo[k], hi[k])
+            } else {
+                0.5 * (lo[k] + hi[k])
+            };
+        }
+        if !self.x[CSCALE].is_finite() {
+            self.x[CSCALE] = 1.0;
+        }
+        let p = 0.5 * (self.p + self.p.transpose());
+        self.p = p;
+        for k in 0..STATES {
+            let d = self.p[(k, k)];
+            let d = if d.is_finite() {
+                d
+            } else {
+                sd_max[k] * sd_max[k]
+            };
+            self.p[(k, k)] = d.clamp(sd_min[k] * sd_min[k], sd_max[k] * sd_max[k]);
+        }
+        // Correlations within ±1.
+        for a in 0..STATES {
+            for b in 0..STATES {
+                if a != b {
+                    let lim = libm::sqrt(self.p[(a, a)] * self.p[(b, b)]) * 0.999;
+                    let v = self.p[(a, b)];
+                    self.p[(a, b)] = if v.is_finite() {
+                        v.clamp(-lim, lim)
+                    } else {
+                        0.0
+                    };
+                }
+            }
+        }
+    }
+
+    fn advance_plan(&mut self, dt: f64) {
+        let soc = self.x[SOC];
+        let Some(plan) = self.plan.as_mut() else {
+            return;
+        };
+        let mut left = dt;
+        while plan.index < plan.len {
+            match plan.segments[plan.index] {
+                Segment::Hover { duration_min } | Segment::Attached { duration_min } => {
+                    let rest = duration_min * 60.0 - plan.time_in_segment_s;
+                    if left >= rest {
+                        left -= rest.max(0.0);
+                        plan.index += 1;
+                        plan.time_in_segment_s = 0.0;
+                        continue;
+                    }
+                    plan.time_in_segment_s += left;
+                    break;
+                }
+                Segment::HoverUntilReserve { reserve_fraction }
+                | Segment::AttachedUntilReserve { reserve_fraction } => {
+                    if soc <= reserve_fraction.max(plan.floor_soc) {
+                        plan.index += 1;
+                        plan.time_in_segment_s = 0.0;
+                        continue;
+                    }
+                    plan.time_in_segment_s += left;
+                    break;
+                }
+                Segment::HoverUntilEmpty => {
+                    plan.time_in_segment_s += left;
+                    break;
+                }
+            }
+        }
+    }
+
+    fn plan_segments(&self, plan: &Plan, out: &mut [SimSegment; MAX_PLAN_SEGMENTS + 1]) -> usize {
+        let mut n = 0;
+        for (k, seg) in plan.segments[..plan.len]
+            .iter()
+            .enumerate()
+            .skip(plan.index)
+        {
+            let elapsed = if k == plan.index {
+                plan.time_in_segment_s
+            } else {
+                0.0
+            };
+            let (flying, duration_s, stop) = match *seg {
+                Segment::Hover { duration_min } => {
+                    (true, (duration_min * 60.0 - elapsed).max(0.0), 0.0)
+                }
+                Segment::Attached { duration_min } => {
+                    (false, (duration_min * 60.0 - elapsed).max(0.0), 0.0)
+                }
+                Segment::HoverUntilReserve { reserve_fraction } => {
+                    (true, f64::INFINITY, reserve_fraction)
+                }
+                Segment::AttachedUntilReserve { reserve_fraction } => {
+                    (false, f64::INFINITY, reserve_fraction)
+                }
+                Segment::HoverUntilEmpty => (true, f64::INFINITY, 0.0),
+            };
+            out[n] = SimSegment {
+                flying,
+                duration_s,
+                stop_soc: stop.max(plan.floor_soc),
+                ends_at_cutoff: matches!(seg, Segment::HoverUntilEmpty),
+            };
+            n += 1;
+        }
+        n
+    }
+
+    fn predict(&self, t: f64) -> Prediction {
+        let x = self.x;
+        // On the ground the question is how long the robot can hover once it takes off;
+        // attached, how long it can stay (eq. 6).
+        let phase_flying = self.phase != FlightPhase::Attached;
+        let power = self.power_w(
+            if phase_flying {
+                FlightPhase::Hover
+            } else {
+                FlightPhase::Attached
+            },
+            &x,
+        );
+        // Sigma points: mean ± columns of the covariance's Cholesky factor.
+        let l = match self.p.cholesky() {
+            Some(ch) => ch.l(),
+            None => Matrix::from_diagonal(&self.p.diagonal().map(|d| libm::sqrt(d.max(0.0)))),
+        };
+        let phase_seg = [SimSegment {
+            flying: phase_flying,
+            duration_s: f64::INFINITY,
+            stop_soc: 0.0,
+            ends_at_cutoff: true,
+        }];
+        let mut flags = 0;
+        let run = |xs: &Vector, segs: &[SimSegment], plan_len: usize, flags: &mut u32| {
+            let r = predict::simulate(
+                &self.pack,
+                xs,
+                segs,
+                plan_len,
+                self.hover_power_w + xs[PEXTRA],
+                self.idle_power_w,
+            );
+            if r.truncated {
+                *flags |= Estimate::FLAG_TRUNCATED;
+            }
+            r
+        };
+        let centre = run(&x, &phase_seg, 0, &mut flags);
+        if centre.unreachable_at_start {
+            flags |= Estimate::FLAG_POWER_UNREACHABLE;
+        }
+        let mut var = 0.0;
+        for j in 0..STATES {
+            let col = l.column(j).into_owned();
+            let a = run(&(x + col), &phase_seg, 0, &mut flags).total_s;
+            let b = run(&(x - col), &phase_seg, 0, &mut flags).total_s;
+            var += 0.25 * (a - b) * (a - b);
+        }
+        let mf = self.config.prediction_model_sigma_fraction * centre.total_s;
+        let phase_sigma = libm::sqrt(var + mf * mf);
+
+        let plan = self.plan.map(|plan| {
+            let mut segs = [SimSegment::EMPTY; MAX_PLAN_SEGMENTS + 1];
+            let n = self.plan_segments(&plan, &mut segs);
+            // eq. (9): after the plan, hover until the cut-off.
+            segs[n] = SimSegment {
+                flying: true,
+                duration_s: f64::INFINITY,
+                stop_soc: 0.0,
+                ends_at_cutoff: true,
+            };
+            let c = run(&x, &segs[..=n], n, &mut flags);
+            let mut var = 0.0;
+            for j in 0..STATES {
+                let col = l.column(j).into_owned();
+                let a = run(&(x + col), &segs[..=n], n, &mut flags).plan_s;
+                let b = run(&(x - col), &segs[..=n], n, &mut flags).plan_s;
+                var += 0.25 * (a - b) * (a - b);
+            }
+            let mf = self.config.prediction_model_sigma_fraction * c.plan_s;
+            PlanPrediction {
+                remaining_s: c.plan_s,
+                sigma_s: libm::sqrt(var + mf * mf),
+                reserve_s: if c.plan_completed {
+                    (c.total_s - c.plan_s).max(0.0)
+                } else {
+                    0.0
+                },
+                completes: c.plan_completed,
+            }
+        });
+        Prediction {
+            time_s: t,
+            phase_s: centre.total_s,
+            phase_sigma_s: phase_sigma,
+            phase_power_w: power,
+            plan,
+            flags,
+        }
+    }
+}

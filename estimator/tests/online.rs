@@ -1,0 +1,546 @@
+//! The online estimator against synthetic packs discharged by an integrator written here, in
+//! another form than the filter: the open-circuit curve is a closed formula (not a knot table),
+//! the discharge is a fixed-step Euler integration at 100 Hz of the pack's charge, its RC pair
+//! and the power the robot draws, and the logged samples carry seeded noise.
+
+use estimator::online::{
+    BatteryModel, Chemistry, Estimate, FlightPhase, OCV_KNOTS, OnlineConfig, OnlineEstimator,
+    Sample, Vehicle,
+};
+use estimator::{MissionOptions, Params, PolyCurve, Segment};
+
+/// Open-circuit voltage of one cell of the synthetic pack: a sloped plateau, a knee below 15 %
+/// and a shoulder near full.
+fn truth_ocv_cell_v(soc: f64) -> f64 {
+    let s = soc.clamp(0.0, 1.0);
+    4.2 - 0.62 * (1.0 - s) - 0.28 * (-14.0 * s).exp() - 0.04 * (std::f64::consts::PI * s).sin()
+}
+
+/// The pack the truth flies.
+#[derive(Clone, Copy)]
+struct TruePack {
+    cells: f64,
+    capacity_ah: f64,
+    r0_cell_ohm: f64,
+    r1_cell_ohm: f64,
+    tau_s: f64,
+    cutoff_cell_v: f64,
+}
+
+const NOMINAL: TruePack = TruePack {
+    cells: 3.0,
+    capacity_ah: 2.1,
+    r0_cell_ohm: 0.012,
+    r1_cell_ohm: 0.006,
+    tau_s: 20.0,
+    cutoff_cell_v: 3.4,
+};
+
+fn params() -> Params {
+    // p(T) = 0.12 T + 0.0004 T² per rotor, in the scaled basis t = (T − 130)/130.
+    let curve = PolyCurve::new(
+        &[22.36, 29.12, 6.76],
+        130.0,
+        130.0,
+        (0.0, 260.0),
+        Some(12.0),
+    )
+    .unwrap();
+    Params {
+        rotor_count: 4,
+        curve,
+        thrust_limit: None,
+        battery: None,
+        vehicle: Some(Vehicle {
+            structure_mass_kg: 0.431,
+            battery_mass_kg: 0.144,
+            payload_mass_kg: 0.0,
+            avionics_power_w: 2.44,
+            payload_power_w: 0.0,
+        }),
+    }
+}
+
+/// The battery model the file holds: the nominal pack, its curve sampled at the knots (as the
+/// gap diagnosis would learn it).
+fn file_battery() -> BatteryModel {
+    let mut ocv = [0.0; OCV_KNOTS];
+    for (k, v) in ocv.iter_mut().enumerate() {
+        *v = truth_ocv_cell_v(k as f64 / (OCV_KNOTS - 1) as f64);
+    }
+    BatteryModel {
+        cells: 3,
+        rated_capacity_ah: NOMINAL.capacity_ah,
+        chemistry: Chemistry::Measured,
+        ocv_cell_v: ocv,
+        series_resistance_cell_ohm: NOMINAL.r0_cell_ohm,
+        rc_resistance_cell_ohm: NOMINAL.r1_cell_ohm,
+        rc_time_constant_s: NOMINAL.tau_s,
+        cutoff_cell_v: NOMINAL.cutoff_cell_v,
+    }
+}
+
+/// A small deterministic generator (xorshift) for sensor noise.
+struct Noise(u64);
+impl Noise {
+    fn gauss(&mut self) -> f64 {
+        let mut u = || {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (a, b) = (u().max(1e-12), u());
+        (-2.0 * a.ln()).sqrt() * (2.0 * std::f64::consts::PI * b).cos()
+    }
+}
+
+struct Flight {
+    samples: Vec<Sample>,
+    soc: Vec<f64>,
+    /// Time of the cut-off (end of the flight), s.
+    end_s: f64,
+}
+
+/// Ground for 5 s at idle, then hover at `hover_w` until the terminal voltage reaches the
+/// cut-off; samples at `rate_hz` with noise.
+fn fly(
+    pack: TruePack,
+    idle_w: f64,
+    hover_w: f64,
+    rate_hz: f64,
+    with_current: bool,
+    seed: u64,
+) -> Flight {
+    let dt = 0.01;
+    let every = (1.0 / rate_hz / dt).round() as usize;
+    let mut noise = Noise(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1);
+    let (mut soc, mut v1, mut t) = (1.0, 0.0, 0.0);
+    let (mut samples, mut socs) = (Vec::new(), Vec::new());
+    let r0 = pack.cells * pack.r0_cell_ohm;
+    let r1 = pack.cells * pack.r1_cell_ohm;
+    for k in 0.. {
+        let flying = t >= 5.0;
+        let p = if flying { hover_w } else { idle_w };
+        let e = pack.cells * truth_ocv_cell_v(soc) - v1;
+        let disc = e * e - 4.0 * r0 * p;
+        if disc < 0.0 {
+            break;
+        }
+        let i = (e - disc.sqrt()) / (2.0 * r0);
+        let v = e - i * r0;
+        if flying && v <= pack.cells * pack.cutoff_cell_v {
+            break;
+        }
+        if k % every == 0 {
+            samples.push(Sample {
+                time_s: t,
+                voltage_v: v + 0.01 * noise.gauss(),
+                current_a: with_current.then(|| i * 1.0 + 0.05 * noise.gauss()),
+                phase: Some(if flying {
+                    FlightPhase::Hover
+                } else {
+                    FlightPhase::Ground
+                }),
+            });
+            socs.push(soc);
+        }
+        soc -= i * dt / (3600.0 * pack.capacity_ah);
+        v1 += (i * r1 - v1) * dt / pack.tau_s;
+        t += dt;
+    }
+    Flight {
+        samples,
+        soc: socs,
+        end_s: t,
+    }
+}
+
+fn run(f: &Flight, est: &mut OnlineEstimator) -> Vec<Estimate> {
+    f.samples.iter().map(|s| est.update(s)).collect()
+}
+
+/// Index of the sample at `frac` of the hover and the true remaining time there, s.
+fn at_fraction(f: &Flight, frac: f64) -> (usize, f64) {
+    let t = 5.0 + frac * (f.end_s - 5.0);
+    let k = f.samples.iter().position(|s| s.time_s >= t).unwrap();
+    (k, f.end_s - f.samples[k].time_s)
+}
+
+fn base_estimator() -> OnlineEstimator {
+    OnlineEstimator::new(&params(), &file_battery(), &OnlineConfig::default()).unwrap()
+}
+
+fn vary(f: impl Fn(&mut TruePack)) -> TruePack {
+    let mut p = NOMINAL;
+    f(&mut p);
+    p
+}
+
+/// Flies `pack` at `power_factor` × the model's hover power and runs the estimator over it.
+fn flown(
+    pack: TruePack,
+    power_factor: f64,
+    with_current: bool,
+    seed: u64,
+) -> (Flight, Vec<Estimate>) {
+    let mut est = base_estimator();
+    let f = fly(
+        pack,
+        est.idle_power_w(),
+        est.model_hover_power_w() * power_factor,
+        10.0,
+        with_current,
+        seed,
+    );
+    let out = run(&f, &mut est);
+    (f, out)
+}
+
+/// Error of the predicted remaining hover time at `frac` of the flight, as a fraction of the
+/// flight's duration.
+fn remaining_error(f: &Flight, out: &[Estimate], frac: f64) -> f64 {
+    let (k, truth) = at_fraction(f, frac);
+    (out[k].remaining_phase_s - truth) / (f.end_s - 5.0)
+}
+
+#[test]
+fn converges_to_the_true_state_of_charge() {
+    for with_current in [true, false] {
+        let (f, out) = flown(NOMINAL, 1.0, with_current, 1);
+        for frac in [0.25, 0.5, 0.75, 0.9] {
+            let (k, _) = at_fraction(&f, frac);
+            let e = out[k];
+            assert!(
+                (e.soc - f.soc[k]).abs() < 0.02,
+                "current {with_current} at {frac}: soc {} vs {}",
+                e.soc,
+                f.soc[k]
+            );
+            assert!(e.soc_sigma > 0.0 && e.soc_sigma < 0.05);
+            assert!(remaining_error(&f, &out, frac).abs() < 0.02);
+            assert_eq!(e.flags, 0, "{e:?}");
+        }
+    }
+}
+
+#[test]
+fn detects_a_20_percent_capacity_fade() {
+    let pack = vary(|p| p.capacity_ah *= 0.8);
+    // The static model (the file's pack) overestimates by the fade: what must be corrected.
+    let (f, out) = flown(pack, 1.0, true, 2);
+    assert!(
+        remaining_error(&f, &out, 0.0) > 0.1,
+        "{}",
+        remaining_error(&f, &out, 0.0)
+    );
+    for frac in [0.5, 0.75, 0.9] {
+        let (k, _) = at_fraction(&f, frac);
+        let cap = out[k].usable_capacity_ah;
+        assert!(
+            (cap / pack.capacity_ah - 1.0).abs() < 0.05,
+            "at {frac}: {cap} Ah"
+        );
+        assert!(remaining_error(&f, &out, frac).abs() < 0.02);
+    }
+    // Without current the fade and a higher power look alike, but the remaining time is right.
+    let (f, out) = flown(pack, 1.0, false, 3);
+    for frac in [0.5, 0.75, 0.9] {
+        assert!(remaining_error(&f, &out, frac).abs() < 0.03, "{frac}");
+    }
+}
+
+#[test]
+fn detects_a_50_percent_higher_resistance() {
+    let pack = vary(|p| p.r0_cell_ohm *= 1.5);
+    let truth_ohm = pack.cells * pack.r0_cell_ohm;
+    for with_current in [true, false] {
+        let (f, out) = flown(pack, 1.0, with_current, 4);
+        for frac in [0.25, 0.5, 0.75] {
+            let (k, _) = at_fraction(&f, frac);
+            let r = out[k].series_resistance_ohm;
+            assert!(
+                (r / truth_ohm - 1.0).abs() < 0.1,
+                "current {with_current} at {frac}: {r} Ω vs {truth_ohm} Ω"
+            );
+            assert!(remaining_error(&f, &out, frac).abs() < 0.03);
+        }
+    }
+}
+
+#[test]
+fn detects_a_15_percent_power_increase() {
+    let base = base_estimator();
+    let extra = 0.15 * base.model_hover_power_w();
+    let (f, out) = flown(NOMINAL, 1.15, true, 5);
+    for frac in [0.25, 0.5, 0.75] {
+        let (k, _) = at_fraction(&f, frac);
+        let pe = out[k].extra_power_w;
+        assert!(
+            (pe - extra).abs() < 0.2 * extra,
+            "at {frac}: {pe} W vs {extra} W"
+        );
+        assert!(remaining_error(&f, &out, frac).abs() < 0.02);
+    }
+    // Without current the power shows as a faster fall of the voltage.
+    let (f, out) = flown(NOMINAL, 1.15, false, 6);
+    assert!(remaining_error(&f, &out, 0.0) > 0.08);
+    for frac in [0.5, 0.75, 0.9] {
+        let (k, _) = at_fraction(&f, frac);
+        assert!(
+            out[k].extra_power_w > 0.4 * extra,
+            "{}",
+            out[k].extra_power_w
+        );
+        assert!(remaining_error(&f, &out, frac).abs() < 0.03, "{frac}");
+    }
+}
+
+#[test]
+fn a_mission_plan_agrees_with_eqs_7_to_9_on_an_ideal_pack() {
+    // No resistance, cut-off below the empty voltage: the pack is a pure energy store and the
+    // plan's remainder must be the mission code's.
+    let mut b = BatteryModel::lipo(3, 2.1).unwrap();
+    b.series_resistance_cell_ohm = 0.0;
+    b.cutoff_cell_v = 3.0;
+    let p = params();
+    let mut est = OnlineEstimator::new(&p, &b, &OnlineConfig::default()).unwrap();
+    let plan = [
+        Segment::Hover { duration_min: 2.0 },
+        Segment::Attached { duration_min: 30.0 },
+        Segment::Hover { duration_min: 2.0 },
+    ];
+    est.set_plan(&plan, &MissionOptions::default()).unwrap();
+    let full_v = 3.0 * b.ocv_cell_v[OCV_KNOTS - 1];
+    let e = est.update(&Sample {
+        time_s: 0.0,
+        voltage_v: full_v,
+        current_a: Some(0.0),
+        phase: Some(FlightPhase::Ground),
+    });
+    assert!((e.soc - 1.0).abs() < 1e-6);
+    let v = p.vehicle.unwrap();
+    let model = p.model(v.structure_mass_kg, v.avionics_power_w);
+    let battery = estimator::Battery::new(v.battery_mass_kg, b.energy_wh()).unwrap();
+    let mut segs = [estimator::SegmentOutcome::EMPTY; 3];
+    let s = model
+        .evaluate_mission(
+            &battery,
+            &estimator::Payload::default(),
+            &plan,
+            &MissionOptions::default(),
+            &mut segs,
+        )
+        .unwrap();
+    let plan_s = e.remaining_plan_s.unwrap();
+    assert!(
+        (plan_s - s.total_min * 60.0).abs() < 1e-6 * plan_s,
+        "{plan_s} vs {}",
+        s.total_min * 60.0
+    );
+    assert_eq!(e.plan_completes, Some(true));
+    let t_r = segs[2].reserved_endurance_min * 60.0;
+    let reserve = e.plan_reserve_s.unwrap();
+    assert!(
+        (reserve / t_r - 1.0).abs() < 0.005,
+        "t_R {reserve} s vs eq. 9 {t_r} s"
+    );
+    // Eq. (4) for the phase: hover until empty.
+    assert!((e.remaining_phase_s / (s.estimate.endurance_min * 60.0) - 1.0).abs() < 0.005);
+    // The plan advances with the clock: 3 minutes later (1 min into the attached segment),
+    // with no charge spent, 3 minutes less remain.
+    let e = est.update(&Sample {
+        time_s: 180.0,
+        voltage_v: full_v,
+        current_a: Some(0.0),
+        phase: Some(FlightPhase::Attached),
+    });
+    assert_eq!(est.plan_segment(), Some(1));
+    assert!(
+        (e.remaining_plan_s.unwrap() - (plan_s - 180.0)).abs() < 0.5,
+        "{e:?}"
+    );
+}
+
+#[test]
+fn a_plan_that_cannot_complete_says_so() {
+    let mut est = base_estimator();
+    est.set_plan(
+        &[Segment::Hover { duration_min: 60.0 }],
+        &MissionOptions::default(),
+    )
+    .unwrap();
+    let e = est.update(&Sample {
+        time_s: 0.0,
+        voltage_v: 12.5,
+        current_a: None,
+        phase: Some(FlightPhase::Hover),
+    });
+    assert_eq!(e.plan_completes, Some(false));
+    assert_eq!(e.plan_reserve_s, Some(0.0));
+    assert!((e.remaining_plan_s.unwrap() - e.remaining_phase_s).abs() < 1e-6);
+    assert!(
+        est.set_plan(&[Segment::HoverUntilEmpty; 17], &MissionOptions::default())
+            .is_err()
+    );
+}
+
+#[test]
+fn missing_vehicle_and_bad_battery_are_errors() {
+    let mut p = params();
+    p.vehicle = None;
+    assert!(matches!(
+        OnlineEstimator::new(&p, &file_battery(), &OnlineConfig::default()),
+        Err(estimator::EstimateError::Missing { .. })
+    ));
+    let mut b = file_battery();
+    b.ocv_cell_v[3] = 5.0;
+    assert!(OnlineEstimator::new(&params(), &b, &OnlineConfig::default()).is_err());
+    assert!(OnlineEstimator::from_params(&params(), &OnlineConfig::default()).is_err());
+    // Without a [battery] section: the built-in LiPo with the flight's cells and energy.
+    let b = BatteryModel::from_params_or_lipo(&params(), 3, 23.6).unwrap();
+    assert_eq!(b.chemistry, Chemistry::Lipo);
+    assert!((b.energy_wh() - 23.6).abs() < 1e-9);
+    let mut p = params();
+    p.battery = Some(file_battery());
+    assert_eq!(
+        BatteryModel::from_params_or_lipo(&p, 3, 23.6).unwrap(),
+        file_battery()
+    );
+}
+
+#[test]
+fn state_is_small_and_fixed() {
+    assert_eq!(
+        OnlineEstimator::state_size_bytes(),
+        std::mem::size_of::<OnlineEstimator>()
+    );
+    let bytes = OnlineEstimator::state_size_bytes();
+    eprintln!("OnlineEstimator: {bytes} bytes");
+    assert!(bytes < 2048, "{bytes}");
+}
+
+#[test]
+fn dropouts_and_garbage_leave_the_estimate_finite_and_flagged() {
+    let (f, _) = flown(NOMINAL, 1.0, true, 8);
+    let mut est = base_estimator();
+    let mut last = None;
+    for (k, s) in f.samples.iter().enumerate() {
+        // A 20 s dropout, garbage every 37th sample, a repeated time stamp every 53rd.
+        if (1000..1200).contains(&k) {
+            continue;
+        }
+        let e = if k % 37 == 0 {
+            est.update(&Sample {
+                voltage_v: f64::NAN,
+                ..*s
+            })
+        } else if k % 53 == 0 && k > 0 {
+            est.update(&Sample {
+                time_s: f.samples[k - 1].time_s,
+                ..*s
+            })
+        } else {
+            est.update(s)
+        };
+        let previous_accepted = k > 0 && (k - 1) % 37 != 0 && !(1000..1200).contains(&(k - 1));
+        if k % 37 == 0 || (k % 53 == 0 && previous_accepted) {
+            assert!(e.flags & Estimate::FLAG_REJECTED != 0, "{k}");
+        }
+        if k == 1200 {
+            assert!(e.flags & Estimate::FLAG_GAP != 0);
+        }
+        last = Some((k, e));
+    }
+    let (_, e) = last.unwrap();
+    assert!(e.samples_rejected > 0);
+    let (k, _) = at_fraction(&f, 0.75);
+    let e = {
+        let mut est = base_estimator();
+        let mut out = None;
+        for (j, s) in f.samples.iter().enumerate().take(k + 1) {
+            if !(1000..1200).contains(&j) {
+                out = Some(est.update(s));
+            }
+        }
+        out.unwrap()
+    };
+    assert!((e.soc - f.soc[k]).abs() < 0.03);
+}
+
+mod properties {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn finite(e: &Estimate) -> bool {
+        let opt = |o: Option<f64>| o.is_none_or(f64::is_finite);
+        [
+            e.time_s,
+            e.remaining_phase_s,
+            e.remaining_phase_sigma_s,
+            e.soc,
+            e.soc_sigma,
+            e.usable_capacity_ah,
+            e.usable_capacity_sigma_ah,
+            e.series_resistance_ohm,
+            e.series_resistance_sigma_ohm,
+            e.extra_power_w,
+            e.extra_power_sigma_w,
+            e.phase_power_w,
+            e.current_a,
+            e.voltage_residual_v,
+        ]
+        .iter()
+        .all(|v| v.is_finite())
+            && opt(e.remaining_plan_s)
+            && opt(e.remaining_plan_sigma_s)
+            && opt(e.plan_reserve_s)
+            && e.remaining_phase_s >= 0.0
+            && (0.0..=1.0).contains(&e.soc)
+    }
+
+    fn any_f64() -> impl Strategy<Value = f64> {
+        prop_oneof![
+            -1e6..1e6f64,
+            0.0..20.0f64,
+            Just(f64::NAN),
+            Just(f64::INFINITY),
+            Just(f64::NEG_INFINITY),
+            Just(0.0),
+            any::<f64>(),
+        ]
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        #[test]
+        fn arbitrary_samples_never_panic_and_stay_finite(
+            samples in proptest::collection::vec(
+                (any_f64(), any_f64(), proptest::option::of(any_f64()), 0u8..8, 0.0..5.0f64, 9.0..13.0f64),
+                1..120,
+            ),
+            plan in any::<bool>(),
+        ) {
+            let mut est = base_estimator();
+            if plan {
+                est.set_plan(
+                    &[Segment::Hover { duration_min: 1.0 }, Segment::AttachedUntilReserve { reserve_fraction: 0.5 }, Segment::HoverUntilEmpty],
+                    &MissionOptions::default(),
+                ).unwrap();
+            }
+            let mut t = 0.0;
+            for (k, (time, volts, current, phase, dt, good_v)) in samples.into_iter().enumerate() {
+                t += dt;
+                // Half the samples plausible, half arbitrary.
+                let s = if k % 2 == 0 {
+                    Sample { time_s: t, voltage_v: good_v, current_a: current, phase: FlightPhase::from_code(phase) }
+                } else {
+                    Sample { time_s: time, voltage_v: volts, current_a: current, phase: FlightPhase::from_code(phase) }
+                };
+                let e = est.update(&s);
+                prop_assert!(finite(&e), "{:?} after {:?}", e, s);
+                prop_assert!(e.is_valid() || e.flags & Estimate::FLAG_NOT_INITIALISED != 0);
+            }
+        }
+    }
+}

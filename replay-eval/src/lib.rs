@@ -1,0 +1,714 @@
+//! Evidence for the in-flight estimator: flight sets from the truth simulator (`flight-sim`)
+//! with conditions the estimator is not told about, the pack learned by the gap diagnosis from
+//! nominal flights of the same pack type, every held-out flight replayed by `replay` beside the
+//! baselines, and the scores rolled up per group of world families.
+//!
+//! One scenario (a seed and a world family: chemistry × logging × robot, see
+//! [`flight_sim::Family`]):
+//! 1. the robot's rig sweep is fitted (fifth order, as `hoverbench fit` does) into the rig curve;
+//! 2. the scenario's eight training flights are flown **nominal** (no condition) and the pack of
+//!    each of the two pack types is learned from its own training flights
+//!    (`gap::params_link::learn_section`) into a `[battery]` section;
+//! 3. the four held-out flights are flown to the cut-off **with the condition** drawn from the
+//!    seed ([`Condition`]): capacity fade, extra series resistance (a bad connector), a cold pack
+//!    (ambient −10…+5 °C: flight-sim's Arrhenius resistance with self-heating), a payload the
+//!    metadata does not declare, control overhead (airframe download: power above the model),
+//!    a payload that drains in flight (a sprayer), or nothing;
+//! 4. each held-out flight is replayed with its pack's learned section, and scored.
+//!
+//! The truth (condition, magnitude) never reaches the estimator: it reads the flight's files
+//! (CSV and metadata sidecar, through `flightlog`) and the parameter sections only. The
+//! sidecar gets the rated capacity a pack's label gives (`capacity_mah`: rated energy over the
+//! cells and the chemistry's label voltage) so the baselines can be set up as a user would.
+//!
+//! Tuning and held-out families: the online estimator may be tuned on flight-sim's tuning
+//! families (`lipo|nmc` × `lab-1hz|fc-10hz` × `paper`, as in gap-eval) only; every other family
+//! (LiHV, NCA, LiFePO₄, voltage-only 5 Hz and 50 Hz logging, every varied robot) is held out.
+//! [`Study::groups`] reports both.
+
+use std::ops::Range;
+use std::path::Path;
+
+use estimator::file::BatterySection;
+use estimator::online::OnlineConfig;
+use estimator::{Params, PolyCurve};
+use flight_sim::{
+    Chemistry, EffectKind, Family, FlightPlan, Logging, Robot, RobotVariant, SimFlight, Withheld,
+    plans, simulate,
+};
+use flightlog::{Flight, FlightMeta, LogFormat};
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use replay::online::FileOnline;
+use replay::{FlightReplay, Replay, ReplayConfig, SkippedFlight};
+use serde::Serialize;
+
+/// Errors of a scenario.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum EvalError {
+    /// The rig sweep could not be fitted.
+    #[error("rig curve: {0}")]
+    Rig(String),
+    /// A simulated flight could not be read back.
+    #[error("reading back {name}: {message}")]
+    ReadBack {
+        /// Flight.
+        name: String,
+        /// Why.
+        message: String,
+    },
+    /// The battery could not be learned.
+    #[error("learning the battery {pack}: {message}")]
+    Battery {
+        /// Pack type.
+        pack: String,
+        /// Why.
+        message: String,
+    },
+    /// An unknown family or group filter.
+    #[error("no world family matches {0:?}")]
+    NoFamily(String),
+}
+
+/// A condition of the held-out flights the estimator is not told about.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Condition {
+    /// Nothing.
+    Nominal,
+    /// Capacity lost, fraction.
+    CapacityFade {
+        /// Fraction lost.
+        fraction: f64,
+    },
+    /// Extra series resistance (connector, wiring), Ω.
+    ExtraResistance {
+        /// Ω.
+        ohm: f64,
+    },
+    /// A cold pack: ambient temperature, °C.
+    Cold {
+        /// °C.
+        ambient_c: f64,
+    },
+    /// A payload the metadata does not declare, kg.
+    UndeclaredPayload {
+        /// kg.
+        kg: f64,
+    },
+    /// Control overhead (airframe download), fraction of the weight.
+    ControlOverhead {
+        /// Fraction.
+        fraction: f64,
+    },
+    /// A payload that drains in flight over 5 min (declared at take-off), kg.
+    DrainingPayload {
+        /// kg.
+        kg: f64,
+    },
+}
+
+impl Condition {
+    /// Names of the condition kinds, in draw order.
+    pub const NAMES: [&'static str; 7] = [
+        "nominal",
+        "capacity_fade",
+        "extra_resistance",
+        "cold",
+        "undeclared_payload",
+        "control_overhead",
+        "draining_payload",
+    ];
+
+    /// Name of the kind.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Condition::Nominal => Self::NAMES[0],
+            Condition::CapacityFade { .. } => Self::NAMES[1],
+            Condition::ExtraResistance { .. } => Self::NAMES[2],
+            Condition::Cold { .. } => Self::NAMES[3],
+            Condition::UndeclaredPayload { .. } => Self::NAMES[4],
+            Condition::ControlOverhead { .. } => Self::NAMES[5],
+            Condition::DrainingPayload { .. } => Self::NAMES[6],
+        }
+    }
+
+    /// Drawn from a seed: each kind equally often, magnitudes uniform over their ranges.
+    pub fn draw(seed: u64) -> Self {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7265_706c_6179);
+        let k = rng.random_range(0..Self::NAMES.len());
+        let u: f64 = rng.random();
+        let lerp = |a: f64, b: f64| a + (b - a) * u;
+        match k {
+            0 => Condition::Nominal,
+            1 => Condition::CapacityFade {
+                fraction: lerp(0.05, 0.25),
+            },
+            2 => Condition::ExtraResistance {
+                ohm: lerp(0.02, 0.10),
+            },
+            3 => Condition::Cold {
+                ambient_c: lerp(-10.0, 5.0),
+            },
+            4 => Condition::UndeclaredPayload {
+                kg: lerp(0.03, 0.08),
+            },
+            5 => Condition::ControlOverhead {
+                fraction: lerp(0.03, 0.10),
+            },
+            _ => Condition::DrainingPayload {
+                kg: lerp(0.03, 0.08),
+            },
+        }
+    }
+
+    fn effect(&self) -> Withheld {
+        let (kind, magnitude) = match *self {
+            Condition::CapacityFade { fraction } => (EffectKind::CapacityFade, fraction),
+            Condition::ExtraResistance { ohm } => (EffectKind::InternalResistance, ohm),
+            Condition::ControlOverhead { fraction } => (EffectKind::ControlOverhead, fraction),
+            Condition::DrainingPayload { kg } => (EffectKind::DrainingPayload, kg),
+            _ => return Withheld::NONE,
+        };
+        Withheld { kind, magnitude }
+    }
+}
+
+/// Label voltage of a chemistry's cell, V: what a pack's label multiplies into its Wh.
+pub fn label_cell_v(c: Chemistry) -> f64 {
+    match c {
+        Chemistry::LiPo => 3.7,
+        Chemistry::LiHv => 3.85,
+        Chemistry::Nmc | Chemistry::Nca => 3.6,
+        Chemistry::LiFePo4 => 3.2,
+    }
+}
+
+/// Whether the online estimator may be tuned on this family (see the crate docs).
+pub fn is_tuning_family(f: &Family) -> bool {
+    matches!(f.chemistry, Chemistry::LiPo | Chemistry::Nmc)
+        && matches!(f.logging, Logging::Lab1Hz | Logging::Fc10Hz)
+        && f.robot == RobotVariant::Paper
+}
+
+/// Families selected by a comma-separated filter: `all`, `tuning`, `heldout`, or patterns
+/// `chemistry/logging/robot` with `*`.
+pub fn select_families(filter: &str) -> Result<Vec<Family>, EvalError> {
+    let all = Family::all();
+    let mut out: Vec<Family> = Vec::new();
+    for part in filter.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let hits: Vec<Family> = all
+            .iter()
+            .copied()
+            .filter(|f| match part {
+                "all" => true,
+                "tuning" => is_tuning_family(f),
+                "heldout" | "held-out" => !is_tuning_family(f),
+                p => f.matches(p),
+            })
+            .collect();
+        if hits.is_empty() {
+            return Err(EvalError::NoFamily(part.to_owned()));
+        }
+        for h in hits {
+            if !out.contains(&h) {
+                out.push(h);
+            }
+        }
+    }
+    if out.is_empty() {
+        return Err(EvalError::NoFamily(filter.to_owned()));
+    }
+    Ok(out)
+}
+
+/// The rig curve a user fits from the sweep (fifth order).
+pub fn rig_curve(thrust_g: &[f64], power_w: &[f64], volts: f64) -> Result<PolyCurve, EvalError> {
+    let f = fit::fit_polynomial(thrust_g, power_w, 5).map_err(|e| EvalError::Rig(e.to_string()))?;
+    PolyCurve::new(
+        f.coeffs_scaled(),
+        f.center(),
+        f.scale(),
+        f.domain(),
+        Some(volts),
+    )
+    .map_err(|e| EvalError::Rig(e.to_string()))
+}
+
+fn read_back(f: &SimFlight, label_v: f64) -> Result<Flight, EvalError> {
+    let err = |e: flightlog::FlightLogError| EvalError::ReadBack {
+        name: f.name.clone(),
+        message: e.to_string(),
+    };
+    let mut flight = Flight::parse(
+        f.csv.as_bytes(),
+        Path::new(&format!("{}.csv", f.name)),
+        LogFormat::Csv,
+    )
+    .map_err(err)?;
+    let mut meta =
+        FlightMeta::parse(&f.toml, Path::new(&format!("{}.toml", f.name))).map_err(err)?;
+    if let (Some(e), Some(c)) = (meta.battery_energy_wh, meta.cells) {
+        meta.capacity_mah = Some(e / (f64::from(c) * label_v) * 1000.0);
+    }
+    flight.meta = meta.merged_over(&flight.meta);
+    Ok(flight)
+}
+
+/// What was learned for one pack type.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LearnedPack {
+    /// Pack type (`battery_id`).
+    pub pack: String,
+    /// Rated capacity in the section, Ah.
+    pub rated_capacity_ah: f64,
+    /// Series resistance, Ω per cell.
+    pub series_resistance_cell_ohm: f64,
+    /// Prior chosen.
+    pub chemistry: String,
+}
+
+/// One scenario's outcome.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ScenarioOutcome {
+    /// Seed.
+    pub seed: u64,
+    /// World family.
+    pub family: Family,
+    /// A tuning family.
+    pub tuning: bool,
+    /// The condition of the held-out flights.
+    pub condition: Condition,
+    /// Packs learned.
+    pub packs: Vec<LearnedPack>,
+    /// Replayed held-out flights.
+    pub flights: Vec<FlightReplay>,
+    /// Held-out flights not scored.
+    pub skipped: Vec<SkippedFlight>,
+}
+
+/// Runs one scenario (see the crate docs).
+pub fn run_scenario(
+    family: &Family,
+    seed: u64,
+    config: &OnlineConfig,
+) -> Result<ScenarioOutcome, EvalError> {
+    let robot = Robot::of(family.robot, seed);
+    let (train_plans, held_plans) = plans(family, seed);
+    let (thrust, power) = robot.rig_sweep(10.0, seed);
+    let curve = rig_curve(&thrust, &power, flight_sim::robot::RIG_VOLTAGE_V)?;
+    let label_v = label_cell_v(family.chemistry);
+    let fly = |p: &FlightPlan, effect: &Withheld, salt: u64| {
+        let s = seed.wrapping_mul(1_000_003).wrapping_add(salt);
+        simulate(family, &robot, p, effect, s)
+    };
+    // Nominal training flights.
+    let mut train = Vec::new();
+    for (k, p) in train_plans.iter().enumerate() {
+        train.push(read_back(&fly(p, &Withheld::NONE, k as u64), label_v)?);
+    }
+    let records: Vec<gap::flight::FlightRecord> = train
+        .iter()
+        .filter_map(|f| gap::logs::record_from_log(f).ok())
+        .collect();
+    let params = Params {
+        rotor_count: robot.rotor_count,
+        curve,
+        thrust_limit: None,
+        battery: None,
+        vehicle: None,
+    };
+    let model = gap::model::Model {
+        curve: &params.curve,
+        rotor_count: params.rotor_count,
+    };
+    let mut sections: Vec<(String, BatterySection)> = Vec::new();
+    let mut packs = Vec::new();
+    let mut ids: Vec<String> = records.iter().map(gap::battery::battery_type).collect();
+    ids.sort();
+    ids.dedup();
+    for id in &ids {
+        let l = gap::params_link::learn_section(model, &records, Some(id), None).map_err(|e| {
+            EvalError::Battery {
+                pack: id.clone(),
+                message: e.to_string(),
+            }
+        })?;
+        packs.push(LearnedPack {
+            pack: id.clone(),
+            rated_capacity_ah: l.section.rated_capacity_ah.unwrap_or(f64::NAN),
+            series_resistance_cell_ohm: l.section.series_resistance_cell_ohm,
+            chemistry: l.section.chemistry.clone(),
+        });
+        sections.push((id.clone(), l.section));
+    }
+    // Held-out flights with the condition.
+    let condition = Condition::draw(seed);
+    let effect = condition.effect();
+    let mut flights = Vec::new();
+    let mut skipped = Vec::new();
+    for (k, p) in held_plans.iter().enumerate() {
+        let mut plan = p.clone();
+        let mut declared_payload = None;
+        match condition {
+            Condition::Cold { ambient_c } => plan.ambient_c = ambient_c,
+            Condition::UndeclaredPayload { kg } => {
+                declared_payload = Some(plan.payload_mass_kg);
+                plan.payload_mass_kg += kg;
+            }
+            _ => {}
+        }
+        let mut sim = fly(&plan, &effect, 100 + k as u64);
+        if let Some(d) = declared_payload {
+            sim.toml = sim
+                .toml
+                .lines()
+                .map(|l| {
+                    if l.starts_with("payload_mass_kg") {
+                        format!("payload_mass_kg = {d}")
+                    } else {
+                        l.to_owned()
+                    }
+                })
+                .collect::<Vec<_>>()
+                .join("\n")
+                + "\n";
+        }
+        let flight = read_back(&sim, label_v)?;
+        let id = flight.meta.battery_id.clone().unwrap_or_default();
+        let Some((_, section)) = sections.iter().find(|(i, _)| *i == id) else {
+            skipped.push(SkippedFlight {
+                name: flight.name.clone(),
+                reason: format!("no training flight of pack {id}"),
+            });
+            continue;
+        };
+        let battery = section.to_model().map_err(|(_, m)| EvalError::Battery {
+            pack: id.clone(),
+            message: m,
+        })?;
+        let online = FileOnline::new(params, battery, *config);
+        let rc = ReplayConfig {
+            params,
+            online: Some(&online),
+        };
+        match replay::replay_flight(&flight, &rc) {
+            Ok(r) => flights.push(r),
+            Err(reason) => skipped.push(SkippedFlight {
+                name: flight.name.clone(),
+                reason,
+            }),
+        }
+    }
+    Ok(ScenarioOutcome {
+        seed,
+        family: *family,
+        tuning: is_tuning_family(family),
+        condition,
+        packs,
+        flights,
+        skipped,
+    })
+}
+
+/// How a study runs.
+#[derive(Debug, Clone)]
+pub struct StudyOptions {
+    /// Seeds (scenario `s` flies family `families[s mod len]`).
+    pub seeds: Range<u64>,
+    /// World families.
+    pub families: Vec<Family>,
+    /// Worker threads.
+    pub threads: usize,
+    /// The online estimator's configuration.
+    pub config: OnlineConfig,
+}
+
+/// A group of scenarios and its replay summary.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Group {
+    /// Name (`held out`, `tuning`, `condition cold`, `chemistry lfp`, …).
+    pub name: String,
+    /// `tuning`, `held out` or `mixed`.
+    pub split: &'static str,
+    /// Scenarios in it.
+    pub scenarios: usize,
+    /// The replay of its flights.
+    pub replay: Replay,
+}
+
+/// The targets of issue 14 on a group.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Targets {
+    /// Median absolute error of the online estimator at 50 %, % of duration.
+    pub online_median_50_pct: Option<f64>,
+    /// The better baseline's (lower median at 50 %), with its name.
+    pub best_baseline_median_50_pct: Option<f64>,
+    /// Which baseline that is.
+    pub best_baseline: Option<&'static str>,
+    /// One-sigma coverage.
+    pub coverage: Option<f64>,
+    /// ≤ 3 % at 50 %.
+    pub within_3_pct: bool,
+    /// ≤ half the better baseline's.
+    pub half_best_baseline: bool,
+    /// Coverage in 60–75 %.
+    pub coverage_in_band: bool,
+}
+
+impl Targets {
+    /// The targets evaluated on a replay summary.
+    pub fn of(summary: &replay::Summary) -> Self {
+        let half = summary
+            .checkpoints
+            .iter()
+            .find(|c| (c.fraction - 0.5).abs() < 1e-9);
+        let online = half.and_then(|c| c.median_abs_error_pct[replay::methods::ONLINE]);
+        let best = half.and_then(|c| {
+            replay::METHODS[1..]
+                .iter()
+                .filter_map(|m| c.median_abs_error_pct[m].map(|v| (*m, v)))
+                .min_by(|a, b| a.1.total_cmp(&b.1))
+        });
+        let coverage = summary.coverage.one_sigma;
+        Self {
+            online_median_50_pct: online,
+            best_baseline_median_50_pct: best.map(|b| b.1),
+            best_baseline: best.map(|b| b.0),
+            coverage,
+            within_3_pct: online.is_some_and(|v| v <= 3.0),
+            half_best_baseline: match (online, best) {
+                (Some(o), Some((_, b))) => o <= 0.5 * b,
+                _ => false,
+            },
+            coverage_in_band: coverage.is_some_and(|c| (0.6..=0.75).contains(&c)),
+        }
+    }
+
+    /// All three met.
+    pub fn all_met(&self) -> bool {
+        self.within_3_pct && self.half_best_baseline && self.coverage_in_band
+    }
+}
+
+/// A study's results.
+#[derive(Debug, Clone)]
+pub struct Study {
+    /// Every scenario (in seed order), or its error.
+    pub scenarios: Vec<(u64, Family, Result<ScenarioOutcome, String>)>,
+    /// Roll-ups: held out, tuning, per condition, chemistry, logging, robot.
+    pub groups: Vec<Group>,
+}
+
+/// The world family of a seed.
+pub fn family_of(seed: u64, families: &[Family]) -> Family {
+    families[(seed % families.len() as u64) as usize]
+}
+
+/// Runs a study on `threads` workers, calling `progress` after each scenario.
+pub fn study(opts: &StudyOptions, progress: &(dyn Fn() + Sync)) -> Study {
+    let seeds: Vec<u64> = opts.seeds.clone().collect();
+    let threads = opts.threads.max(1);
+    let mut results: Vec<(u64, Family, Result<ScenarioOutcome, String>)> = Vec::new();
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..threads)
+            .map(|t| {
+                let seeds = &seeds;
+                scope.spawn(move || {
+                    let mut out = Vec::new();
+                    for &s in seeds.iter().skip(t).step_by(threads) {
+                        let fam = family_of(s, &opts.families);
+                        let r = run_scenario(&fam, s, &opts.config).map_err(|e| e.to_string());
+                        out.push((s, fam, r));
+                        progress();
+                    }
+                    out
+                })
+            })
+            .collect();
+        for h in handles {
+            if let Ok(v) = h.join() {
+                results.extend(v);
+            }
+        }
+    });
+    results.sort_by_key(|r| r.0);
+    let groups = roll_up(&results);
+    Study {
+        scenarios: results,
+        groups,
+    }
+}
+
+fn roll_up(results: &[(u64, Family, Result<ScenarioOutcome, String>)]) -> Vec<Group> {
+    let ok: Vec<&ScenarioOutcome> = results.iter().filter_map(|r| r.2.as_ref().ok()).collect();
+    let mut groups = Vec::new();
+    let mut add = |name: String, pick: &dyn Fn(&ScenarioOutcome) -> bool| {
+        let mine: Vec<&&ScenarioOutcome> = ok.iter().filter(|s| pick(s)).collect();
+        if mine.is_empty() {
+            return;
+        }
+        let split = if mine.iter().all(|s| !s.tuning) {
+            "held out"
+        } else if mine.iter().all(|s| s.tuning) {
+            "tuning"
+        } else {
+            "mixed"
+        };
+        let flights = mine
+            .iter()
+            .flat_map(|s| s.flights.iter().cloned())
+            .collect();
+        let skipped = mine
+            .iter()
+            .flat_map(|s| s.skipped.iter().cloned())
+            .collect();
+        groups.push(Group {
+            name,
+            split,
+            scenarios: mine.len(),
+            replay: Replay::new(flights, skipped),
+        });
+    };
+    add("all held-out families".into(), &|s| !s.tuning);
+    add("all tuning families".into(), &|s| s.tuning);
+    for c in Condition::NAMES {
+        add(format!("held out, {c}"), &|s| {
+            !s.tuning && s.condition.name() == c
+        });
+    }
+    for c in Condition::NAMES {
+        add(format!("tuning, {c}"), &|s| {
+            s.tuning && s.condition.name() == c
+        });
+    }
+    for c in Chemistry::ALL {
+        add(format!("chemistry {}", c.name()), &|s| {
+            s.family.chemistry == c
+        });
+    }
+    for l in Logging::ALL {
+        add(format!("logging {}", l.name()), &|s| s.family.logging == l);
+    }
+    for r in [RobotVariant::Paper, RobotVariant::Varied] {
+        add(format!("robot {}", r.name()), &|s| s.family.robot == r);
+    }
+    groups
+}
+
+/// The study's table: per group, median absolute error per method at 50 % (and 25/75/90 % for
+/// the online estimator), coverage, and whether the targets are met.
+pub fn table(study: &Study) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let failed = study.scenarios.iter().filter(|r| r.2.is_err()).count();
+    let _ = writeln!(
+        s,
+        "median |error| of the remaining time at 50 % of the flight, % of its duration (flights); online also at 25/75/90 %; coverage of the online one-sigma band"
+    );
+    let _ = writeln!(
+        s,
+        "{:<30} {:<8} {:>5} {:>7} {:>14} {:>14} {:>14} {:>14} {:>20} {:>9}  targets",
+        "group",
+        "split",
+        "runs",
+        "flights",
+        "online",
+        "px4",
+        "coulomb",
+        "static",
+        "online 25/75/90",
+        "coverage"
+    );
+    for g in &study.groups {
+        let sm = &g.replay.summary;
+        let at = |f: f64, m: &str| {
+            sm.checkpoints
+                .iter()
+                .find(|c| (c.fraction - f).abs() < 1e-9)
+                .and_then(|c| c.median_abs_error_pct[m].map(|v| (v, c.flights[m])))
+        };
+        let cell = |m: &str| at(0.5, m).map_or("-".to_owned(), |(v, n)| format!("{v:.2} ({n})"));
+        let others = [0.25, 0.75, 0.9]
+            .iter()
+            .map(|f| at(*f, "online").map_or("-".to_owned(), |(v, _)| format!("{v:.1}")))
+            .collect::<Vec<_>>()
+            .join("/");
+        let t = Targets::of(sm);
+        let _ = writeln!(
+            s,
+            "{:<30} {:<8} {:>5} {:>7} {:>14} {:>14} {:>14} {:>14} {:>20} {:>9}  {}{}{}",
+            g.name,
+            g.split,
+            g.scenarios,
+            sm.scored_flights,
+            cell("online"),
+            cell("px4"),
+            cell("coulomb"),
+            cell("static_model"),
+            others,
+            sm.coverage
+                .one_sigma
+                .map_or("-".to_owned(), |c| format!("{:.0} %", c * 100.0)),
+            if t.within_3_pct {
+                "≤3 % yes"
+            } else {
+                "≤3 % NO"
+            },
+            if t.half_best_baseline {
+                ", ≤½ base yes"
+            } else {
+                ", ≤½ base NO"
+            },
+            if t.coverage_in_band {
+                ", cov yes"
+            } else {
+                ", cov NO"
+            },
+        );
+    }
+    if failed > 0 {
+        let _ = writeln!(s, "\n{failed} scenario(s) failed:");
+        for (seed, fam, r) in &study.scenarios {
+            if let Err(e) = r {
+                let _ = writeln!(s, "  seed {seed} {}: {e}", fam.name());
+            }
+        }
+    }
+    s
+}
+
+/// The study as JSON: per scenario (seed, family, tuning, condition, packs, flights' checkpoint
+/// errors, skipped), per group (summary and targets).
+pub fn to_json(study: &Study) -> serde_json::Value {
+    let scenarios: Vec<serde_json::Value> = study
+        .scenarios
+        .iter()
+        .map(|(seed, fam, r)| match r {
+            Ok(o) => serde_json::json!({
+                "seed": seed,
+                "family": fam.name(),
+                "tuning": o.tuning,
+                "condition": o.condition,
+                "packs": o.packs,
+                "replay": Replay::new(o.flights.clone(), o.skipped.clone()).to_json(),
+            }),
+            Err(e) => serde_json::json!({"seed": seed, "family": fam.name(), "error": e}),
+        })
+        .collect();
+    let groups: Vec<serde_json::Value> = study
+        .groups
+        .iter()
+        .map(|g| {
+            serde_json::json!({
+                "name": g.name,
+                "split": g.split,
+                "scenarios": g.scenarios,
+                "summary": g.replay.summary,
+                "targets": Targets::of(&g.replay.summary),
+            })
+        })
+        .collect();
+    serde_json::json!({"scenarios": scenarios, "groups": groups})
+}

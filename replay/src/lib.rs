@@ -1,0 +1,298 @@
+//! Replay: runs in-flight endurance estimators over logged flights exactly as firmware would —
+//! sample by sample, in time order, each prediction made from past samples only — and scores
+//! their predicted remaining time on flights that end at the cut-off.
+//!
+//! For every flight ([`flightlog::Flight`]) that ends at the cut-off ([`cutoff`] says how that
+//! is recognised; the others are skipped with their reason), the methods ([`methods::METHODS`])
+//! are fed the same samples:
+//!
+//! - `online`: the in-flight estimator `estimator::online` ([`online`]), with its one-sigma band;
+//! - `px4`: PX4's `time_remaining_s` logic ([`methods::Px4TimeRemaining`]);
+//! - `coulomb`: a rated-capacity coulomb counter ([`methods::CoulombCounter`]);
+//! - `static_model`: the paper's endurance (eqs. 1–9) from the parameter file and the flight's
+//!   metadata, minus the time elapsed ([`methods::StaticModel`]).
+//!
+//! At 25, 50, 75 and 90 % of the flight (take-off to cut-off) the prediction made at the last
+//! sample before that instant is compared with the true remaining time (flight end − t), the
+//! error expressed as a percentage of the flight's duration ([`score`]). [`Replay::summary`]
+//! gives the median absolute error per method and checkpoint and how often the online
+//! estimator's one-sigma band covers the truth.
+//!
+//! Main types: [`Sample`], [`Predictor`] (any estimator), [`ReplayConfig`], [`replay_flight`],
+//! [`replay_flights`], [`Replay`] (with [`Replay::to_text`], [`Replay::to_json`],
+//! [`Replay::to_csv`]).
+//!
+//! ```
+//! use std::path::Path;
+//! use flightlog::{Flight, LogFormat};
+//! use replay::{ReplayConfig, replay_flight};
+//!
+//! // A 3S pack hovering at 10 A until the autopilot lands at 10.5 V.
+//! let mut csv = String::from("time_s,voltage_v,current_a,phase\n");
+//! for k in 0..=600 {
+//!     let v = 12.4 - 1.9 * f64::from(k) / 600.0;
+//!     csv += &format!("{k},{v:.3},10.0,hover\n");
+//! }
+//! let mut flight = Flight::parse(csv.as_bytes(), Path::new("hover.csv"), LogFormat::Csv)?;
+//! flight.meta.end = Some(flightlog::End::Cutoff);
+//! flight.meta.cells = Some(3);
+//! flight.meta.capacity_mah = Some(2000.0);
+//!
+//! let curve = paper::reproduce().unwrap().curve;
+//! let params = estimator::Params { rotor_count: 4, curve, thrust_limit: None, battery: None, vehicle: None };
+//! let config = ReplayConfig::baselines_only(params);
+//! let r = replay_flight(&flight, &config).unwrap();
+//! assert_eq!(r.checkpoints.len(), 4);
+//! // At half the flight, 300 s are left; the coulomb counter (2 Ah at 10 A = 720 s in all)
+//! // says 720 - 300 = 420 s.
+//! let half = &r.checkpoints[1];
+//! assert_eq!(half.true_remaining_s, 300.0);
+//! assert!((half.baselines[1].unwrap() - 420.0).abs() < 1.0);
+//! # Ok::<(), flightlog::FlightLogError>(())
+//! ```
+//!
+//! Invariants: a method never sees a sample after the one it predicts at; the library never
+//! prints; it depends on no simulator (the evidence lives in `replay-eval`).
+
+pub mod cutoff;
+pub mod methods;
+pub mod online;
+pub mod score;
+
+use estimator::Params;
+use flightlog::Flight;
+
+pub use cutoff::{CutoffEvidence, FlightSpan};
+pub use methods::{FlightSetup, METHODS, PlanLeg, Prediction, Predictor, Sample};
+pub use score::{
+    Checkpoint, CheckpointSummary, Coverage, FRACTIONS, FlightReplay, MethodSeries, Replay,
+    SkippedFlight, Summary,
+};
+
+/// Most points a plotted series keeps.
+pub const MAX_SERIES_POINTS: usize = 1500;
+
+/// Builds the online estimator for one flight (given the flight's metadata-derived setup and
+/// its mission plan), or says why it cannot run on it. Also returns the names and final values
+/// of its internal states, read after the flight, through [`OnlinePredictor::final_state`].
+pub trait OnlineBuilder: Sync {
+    /// The estimator for this flight.
+    fn build(
+        &self,
+        setup: &FlightSetup,
+        plan: &[PlanLeg],
+        takeoff_s: f64,
+    ) -> Result<Box<dyn OnlinePredictor>, String>;
+}
+
+/// An online estimator: a [`Predictor`] whose internal state can be read at the end.
+pub trait OnlinePredictor: Predictor {
+    /// Named internal states (state of charge, capacity, resistance, …) as they stand.
+    fn final_state(&self) -> Vec<(&'static str, f64)>;
+}
+
+/// What a replay needs: the parameter file's estimator parameters and, when the online
+/// estimator is to run, how to build it.
+pub struct ReplayConfig<'a> {
+    /// Parameters of the rig characterisation (curve, rotors, thrust limit).
+    pub params: Params,
+    /// The online estimator, when it runs.
+    pub online: Option<&'a dyn OnlineBuilder>,
+}
+
+impl ReplayConfig<'_> {
+    /// Only the baselines (no online estimator).
+    pub fn baselines_only(params: Params) -> Self {
+        Self {
+            params,
+            online: None,
+        }
+    }
+}
+
+/// The online estimator of a parameter file (its `[battery]` section), or why it cannot run.
+pub fn online_from_file(
+    file: &estimator::file::ParamsFile,
+) -> Result<Box<dyn OnlineBuilder>, String> {
+    online::FileOnline::from_file(file).map(|o| Box::new(o) as Box<dyn OnlineBuilder>)
+}
+
+/// Replays one flight; `Err` with the reason when it is not scored.
+pub fn replay_flight(flight: &Flight, config: &ReplayConfig<'_>) -> Result<FlightReplay, String> {
+    let span = cutoff::detect(flight)?;
+    let setup = FlightSetup::of(flight);
+    let plan = methods::mission_plan(flight, &span);
+    let mut unavailable: Vec<(&'static str, String)> = Vec::new();
+    let mut online: Option<Box<dyn OnlinePredictor>> = match config.online {
+        None => {
+            unavailable.push((methods::ONLINE, "not run (no online estimator)".to_owned()));
+            None
+        }
+        Some(b) => match b.build(&setup, &plan, span.takeoff_s) {
+            Ok(p) => Some(p),
+            Err(e) => {
+                unavailable.push((methods::ONLINE, e));
+                None
+            }
+        },
+    };
+    let has_current = flight.samples.current_a.is_some();
+    let mut baselines: [Option<Box<dyn Predictor>>; 3] = [None, None, None];
+    match (setup.cells, setup.rated_capacity_ah) {
+        _ if !has_current => {
+            unavailable.push((methods::PX4, "no current logged".to_owned()));
+            unavailable.push((methods::COULOMB, "no current logged".to_owned()));
+        }
+        (Some(c), Some(ah)) => {
+            baselines[0] = Some(Box::new(methods::Px4TimeRemaining::new(
+                methods::Px4Params::defaults(c, ah * 1000.0),
+            )));
+            baselines[1] = Some(Box::new(methods::CoulombCounter::new(ah)));
+        }
+        _ => {
+            let why = "metadata lacks cells or a rated capacity".to_owned();
+            unavailable.push((methods::PX4, why.clone()));
+            unavailable.push((methods::COULOMB, why));
+        }
+    }
+    match methods::StaticModel::new(&config.params, &setup, &plan, span.takeoff_s) {
+        Ok(m) => baselines[2] = Some(Box::new(m)),
+        Err(e) => unavailable.push((methods::STATIC, e)),
+    }
+
+    if online.is_none() && baselines.iter().all(Option::is_none) {
+        let why: Vec<String> = unavailable
+            .iter()
+            .map(|(m, r)| format!("{m}: {r}"))
+            .collect();
+        return Err(format!("no method can run on it ({})", why.join("; ")));
+    }
+    let s = &flight.samples;
+    let n = s.len();
+    // Checkpoint instants and the sample index each is scored at.
+    let targets: Vec<f64> = FRACTIONS
+        .iter()
+        .map(|f| span.takeoff_s + f * span.duration_s())
+        .collect();
+    let mut checkpoints: Vec<Option<Checkpoint>> = vec![None; targets.len()];
+    let flying_from = s.time_s.partition_point(|&t| t < span.takeoff_s);
+    let stride = ((n - flying_from) / MAX_SERIES_POINTS).max(1);
+    let mut series_time_s = Vec::new();
+    let mut series: Vec<methods_series::Acc> = METHODS
+        .iter()
+        .map(|m| methods_series::Acc::new(m))
+        .collect();
+    for k in 0..n {
+        let t = s.time_s[k];
+        if t > span.end_s {
+            break;
+        }
+        let sample = Sample {
+            time_s: t,
+            voltage_v: s.voltage_v[k],
+            current_a: s.current_a.as_ref().map(|c| c[k]),
+            phase: s.phase.as_ref().map(|p| p[k]),
+        };
+        let mut preds: [Option<Prediction>; 4] = [None; 4];
+        if let Some(o) = online.as_mut() {
+            preds[0] = o.update(&sample).filter(|p| p.remaining_s.is_finite());
+        }
+        for (i, b) in baselines.iter_mut().enumerate() {
+            if let Some(b) = b {
+                preds[i + 1] = b.update(&sample).filter(|p| p.remaining_s.is_finite());
+            }
+        }
+        if k >= flying_from && (k - flying_from) % stride == 0 {
+            series_time_s.push(t);
+            for (acc, p) in series.iter_mut().zip(&preds) {
+                acc.push(p);
+            }
+        }
+        // The last sample at or before each checkpoint instant.
+        let next_t = s.time_s.get(k + 1).copied().unwrap_or(f64::INFINITY);
+        for (c, &target) in targets.iter().enumerate() {
+            if t <= target && next_t > target {
+                checkpoints[c] = Some(Checkpoint {
+                    fraction: FRACTIONS[c],
+                    time_s: t,
+                    true_remaining_s: span.end_s - t,
+                    predicted_remaining_s: preds[0].map(|p| p.remaining_s),
+                    sigma_s: preds[0].and_then(|p| p.sigma_s),
+                    baselines: [
+                        preds[1].map(|p| p.remaining_s),
+                        preds[2].map(|p| p.remaining_s),
+                        preds[3].map(|p| p.remaining_s),
+                    ],
+                });
+            }
+        }
+    }
+    let checkpoints: Vec<Checkpoint> = checkpoints.into_iter().flatten().collect();
+    if checkpoints.len() != FRACTIONS.len() {
+        return Err("a checkpoint falls in a hole of the log".to_owned());
+    }
+    let final_state = online.as_ref().map(|o| o.final_state()).unwrap_or_default();
+    Ok(FlightReplay {
+        name: flight.name.clone(),
+        takeoff_s: span.takeoff_s,
+        end_s: span.end_s,
+        evidence: span.evidence,
+        checkpoints,
+        unavailable,
+        series_time_s,
+        series: series
+            .into_iter()
+            .map(methods_series::Acc::finish)
+            .collect(),
+        final_state,
+    })
+}
+
+mod methods_series {
+    use super::{MethodSeries, Prediction};
+
+    pub(crate) struct Acc(MethodSeries);
+
+    impl Acc {
+        pub(crate) fn new(name: &'static str) -> Self {
+            Self(MethodSeries {
+                name,
+                ..MethodSeries::default()
+            })
+        }
+        pub(crate) fn push(&mut self, p: &Option<Prediction>) {
+            self.0
+                .remaining_s
+                .push(p.map_or(f64::NAN, |p| p.remaining_s));
+            self.0
+                .sigma_s
+                .push(p.and_then(|p| p.sigma_s).unwrap_or(f64::NAN));
+        }
+        pub(crate) fn finish(self) -> MethodSeries {
+            self.0
+        }
+    }
+}
+
+/// Replays flights in order, calling `progress` after each; flights not scored are listed with
+/// their reason (and `unread` — files that could not be read at all — are added as skipped).
+pub fn replay_flights(
+    flights: &[Flight],
+    unread: Vec<SkippedFlight>,
+    config: &ReplayConfig<'_>,
+    mut progress: impl FnMut(usize),
+) -> Replay {
+    let mut scored = Vec::new();
+    let mut skipped = unread;
+    for (i, f) in flights.iter().enumerate() {
+        match replay_flight(f, config) {
+            Ok(r) => scored.push(r),
+            Err(reason) => skipped.push(SkippedFlight {
+                name: f.name.clone(),
+                reason,
+            }),
+        }
+        progress(i + 1);
+    }
+    Replay::new(scored, skipped)
+}

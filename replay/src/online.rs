@@ -1,0 +1,213 @@
+//! The online estimator (`estimator::online`) as a replayed method.
+//!
+//! Per flight it gets what firmware would have before take-off:
+//! - the rig curve and the pack model of the parameter file (`[battery]`);
+//! - the vehicle (masses and powers, eqs. 1–2) from the flight's metadata, else the file's
+//!   `[vehicle]` section;
+//! - the autopilot's cut-off voltage from the metadata (`cutoff_voltage_v` / cells), else the
+//!   battery section's;
+//! - the mission plan ([`crate::methods::mission_plan`]): the time on the ground before
+//!   take-off, then the legs of the flight, the last one "hover until empty".
+//!
+//! The `[battery]` section describes a pack type. When a flight's metadata gives a rated energy
+//! that differs from the section's (another pack of the same cells and chemistry), the model's
+//! capacity is scaled by the ratio of the rated energies and its resistances by the inverse (a
+//! bigger pack of the same cells has proportionally lower resistance). Nothing measured in the
+//! flight is used before it is sampled.
+
+use estimator::file::ParamsFile;
+use estimator::online::{
+    BatteryModel, FlightPhase, MAX_PLAN_SEGMENTS, OnlineConfig, OnlineEstimator,
+    Sample as OnlineSample, Vehicle,
+};
+use estimator::{MissionOptions, Params, Segment};
+use flightlog::Phase;
+
+use crate::methods::{FlightSetup, PlanLeg, Prediction, Predictor, Sample};
+use crate::{OnlineBuilder, OnlinePredictor};
+
+/// The online estimator built from a parameter file.
+#[derive(Debug, Clone)]
+pub struct FileOnline {
+    params: Params,
+    battery: BatteryModel,
+    config: OnlineConfig,
+}
+
+impl FileOnline {
+    /// From a parameter file with a `[battery]` section; the reason when it cannot run.
+    pub fn from_file(file: &ParamsFile) -> Result<Self, String> {
+        let params = file.to_params().map_err(|e| e.to_string())?;
+        let battery = params.battery.ok_or_else(|| {
+            "the parameter file has no [battery] section (store one with `hoverbench battery learn`)"
+                .to_owned()
+        })?;
+        Ok(Self::new(params, battery, OnlineConfig::default()))
+    }
+
+    /// From parameters, a pack model and the filter's configuration.
+    pub fn new(params: Params, battery: BatteryModel, config: OnlineConfig) -> Self {
+        Self {
+            params,
+            battery,
+            config,
+        }
+    }
+
+    /// The pack model.
+    pub fn battery(&self) -> &BatteryModel {
+        &self.battery
+    }
+}
+
+/// Phase of `flightlog` as the estimator's.
+pub fn phase_of(p: Phase) -> FlightPhase {
+    match p {
+        Phase::Ground => FlightPhase::Ground,
+        Phase::Hover => FlightPhase::Hover,
+        Phase::Climb => FlightPhase::Climb,
+        Phase::Descend => FlightPhase::Descend,
+        Phase::Attached => FlightPhase::Attached,
+        Phase::Transition => FlightPhase::Hover,
+    }
+}
+
+impl OnlineBuilder for FileOnline {
+    fn build(
+        &self,
+        setup: &FlightSetup,
+        plan: &[PlanLeg],
+        takeoff_s: f64,
+    ) -> Result<Box<dyn OnlinePredictor>, String> {
+        let vehicle = match (
+            setup.structure_mass_kg,
+            setup.battery_mass_kg,
+            setup.avionics_power_w,
+        ) {
+            (Some(s), Some(b), Some(a)) => Some(Vehicle {
+                structure_mass_kg: s,
+                battery_mass_kg: b,
+                payload_mass_kg: setup.payload_mass_kg,
+                avionics_power_w: a,
+                payload_power_w: setup.payload_power_w,
+            }),
+            _ => self.params.vehicle,
+        };
+        let Some(vehicle) = vehicle else {
+            return Err(
+                "no vehicle: the metadata lacks structure_mass_kg, battery_mass_kg or avionics_power_w and the file has no [vehicle]"
+                    .to_owned(),
+            );
+        };
+        let mut battery = self.battery;
+        if let Some(c) = setup.cells {
+            if c != u32::from(battery.cells) {
+                return Err(format!(
+                    "the flight's pack has {c} cells, the [battery] section {}",
+                    battery.cells
+                ));
+            }
+        }
+        if let Some(e) = setup.battery_energy_wh {
+            let k = e / battery.energy_wh();
+            if k.is_finite() && k > 0.0 && (k - 1.0).abs() > 0.01 {
+                battery.rated_capacity_ah *= k;
+                battery.series_resistance_cell_ohm /= k;
+                battery.rc_resistance_cell_ohm /= k;
+            }
+        }
+        let mut config = self.config;
+        config.vehicle = Some(vehicle);
+        if let Some(v) = setup.cutoff_voltage_v {
+            config.cutoff_cell_v = Some(v / f64::from(battery.cells));
+        }
+        let est = OnlineEstimator::new(&self.params, &battery, &config)
+            .map_err(|e| format!("online estimator: {e}"))?;
+        let mut segments: Vec<Segment> = plan
+            .iter()
+            .map(|l| match (l.attached, l.duration_s) {
+                (true, Some(d)) => Segment::Attached {
+                    duration_min: d / 60.0,
+                },
+                (false, Some(d)) => Segment::Hover {
+                    duration_min: d / 60.0,
+                },
+                (_, None) => Segment::HoverUntilEmpty,
+            })
+            .collect();
+        if segments.len() + 1 > MAX_PLAN_SEGMENTS {
+            // Too many legs for the firmware's plan buffer: fly without a plan (hover to the
+            // cut-off from wherever the robot is).
+            segments.clear();
+        }
+        Ok(Box::new(Online {
+            est,
+            segments,
+            takeoff_s,
+            plan_set: false,
+            last: None,
+        }))
+    }
+}
+
+struct Online {
+    est: OnlineEstimator,
+    segments: Vec<Segment>,
+    takeoff_s: f64,
+    plan_set: bool,
+    last: Option<estimator::online::Estimate>,
+}
+
+impl Predictor for Online {
+    fn update(&mut self, s: &Sample) -> Option<Prediction> {
+        if !self.plan_set {
+            self.plan_set = true;
+            if !self.segments.is_empty() {
+                let mut plan = Vec::with_capacity(self.segments.len() + 1);
+                let ground = (self.takeoff_s - s.time_s).max(0.0);
+                if ground > 0.0 {
+                    plan.push(Segment::Attached {
+                        duration_min: ground / 60.0,
+                    });
+                }
+                plan.extend_from_slice(&self.segments);
+                // The plan runs from the next sample; this one is on the ground anyway.
+                let _ = self.est.set_plan(&plan, &MissionOptions::default());
+            }
+        }
+        let e = self.est.update(&OnlineSample {
+            time_s: s.time_s,
+            voltage_v: s.voltage_v,
+            current_a: s.current_a,
+            phase: s.phase.map(phase_of),
+        });
+        if !e.is_valid() {
+            return None;
+        }
+        self.last = Some(e);
+        Some(match (e.remaining_plan_s, e.remaining_plan_sigma_s) {
+            (Some(r), sigma) => Prediction {
+                remaining_s: r,
+                sigma_s: sigma,
+            },
+            (None, _) => Prediction {
+                remaining_s: e.remaining_phase_s,
+                sigma_s: Some(e.remaining_phase_sigma_s),
+            },
+        })
+    }
+}
+
+impl OnlinePredictor for Online {
+    fn final_state(&self) -> Vec<(&'static str, f64)> {
+        self.last.map_or_else(Vec::new, |e| {
+            vec![
+                ("soc", e.soc),
+                ("usable_capacity_ah", e.usable_capacity_ah),
+                ("series_resistance_ohm", e.series_resistance_ohm),
+                ("extra_power_w", e.extra_power_w),
+                ("samples_rejected", f64::from(e.samples_rejected)),
+            ]
+        })
+    }
+}

@@ -1,0 +1,448 @@
+//! Scoring: checkpoints per flight, medians per method and checkpoint, coverage of the
+//! one-sigma band, and the text table.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+use serde::Serialize;
+
+use crate::cutoff::CutoffEvidence;
+use crate::methods::{METHODS, ONLINE};
+
+/// Fractions of the flight at which predictions are scored.
+pub const FRACTIONS: [f64; 4] = [0.25, 0.5, 0.75, 0.9];
+
+/// One method's prediction at a checkpoint.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Checkpoint {
+    /// Fraction of the flight (from take-off to the cut-off).
+    pub fraction: f64,
+    /// Time of the last sample at or before the checkpoint, s (log time): the prediction
+    /// scored is the one made at that sample.
+    pub time_s: f64,
+    /// True remaining time from that sample to the end, s.
+    pub true_remaining_s: f64,
+    /// The online estimator's predicted remaining time, s.
+    pub predicted_remaining_s: Option<f64>,
+    /// Its one-sigma band, s.
+    pub sigma_s: Option<f64>,
+    /// The baselines' predictions, s (`None`: the method has no prediction for this flight).
+    #[serde(skip)]
+    pub baselines: [Option<f64>; 3],
+}
+
+impl Checkpoint {
+    /// The prediction of method `m` (index into [`METHODS`]).
+    pub fn of(&self, m: usize) -> Option<f64> {
+        if m == 0 {
+            self.predicted_remaining_s
+        } else {
+            self.baselines[m - 1]
+        }
+    }
+
+    /// Error of method `m`, % of the flight's duration (positive: predicts too long).
+    pub fn error_pct(&self, m: usize, duration_s: f64) -> Option<f64> {
+        self.of(m)
+            .map(|p| (p - self.true_remaining_s) / duration_s * 100.0)
+    }
+}
+
+impl Serialize for BaselinesView<'_> {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut m = BTreeMap::new();
+        for (k, v) in METHODS[1..].iter().zip(self.0) {
+            m.insert(*k, *v);
+        }
+        m.serialize(s)
+    }
+}
+
+/// The baselines of a checkpoint as a `{name: s}` map.
+struct BaselinesView<'a>(&'a [Option<f64>; 3]);
+
+/// A prediction series of one method over the flight, for plots.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct MethodSeries {
+    /// Method name.
+    pub name: &'static str,
+    /// Predicted remaining time at each plotted sample, s (NaN: no prediction).
+    pub remaining_s: Vec<f64>,
+    /// One-sigma band, s (NaN where none).
+    pub sigma_s: Vec<f64>,
+}
+
+/// What was replayed for one flight: checkpoints, and decimated series for plots.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FlightReplay {
+    /// Flight name.
+    pub name: String,
+    /// Take-off, s (log time).
+    pub takeoff_s: f64,
+    /// End at the cut-off, s (log time).
+    pub end_s: f64,
+    /// How the cut-off was recognised.
+    pub evidence: CutoffEvidence,
+    /// Scored checkpoints, one per entry of [`FRACTIONS`].
+    pub checkpoints: Vec<Checkpoint>,
+    /// Methods that gave no prediction on this flight, with the reason.
+    pub unavailable: Vec<(&'static str, String)>,
+    /// Plotted sample times, s (log time, from take-off on).
+    pub series_time_s: Vec<f64>,
+    /// One series per method, in [`METHODS`] order.
+    pub series: Vec<MethodSeries>,
+    /// Estimator states at the end (online method), for the report: (name, value).
+    pub final_state: Vec<(&'static str, f64)>,
+}
+
+impl FlightReplay {
+    /// Flight duration, s.
+    pub fn duration_s(&self) -> f64 {
+        self.end_s - self.takeoff_s
+    }
+}
+
+/// A flight left out, and why.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SkippedFlight {
+    /// Flight name (or file).
+    pub name: String,
+    /// Why.
+    pub reason: String,
+}
+
+/// Per checkpoint: median absolute error per method and how many flights each had.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CheckpointSummary {
+    /// Fraction of the flight.
+    pub fraction: f64,
+    /// Median absolute error, % of the flight duration, per method (`None`: no flight).
+    pub median_abs_error_pct: BTreeMap<&'static str, Option<f64>>,
+    /// Flights scored per method.
+    pub flights: BTreeMap<&'static str, usize>,
+}
+
+/// Coverage of the online estimator's one-sigma band.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Coverage {
+    /// Checkpoints with a prediction and a sigma.
+    pub checkpoints: usize,
+    /// Of those, how many had the truth within ±1 σ.
+    pub within_one_sigma: usize,
+    /// The share, 0–1 (`None` without checkpoints).
+    pub one_sigma: Option<f64>,
+}
+
+/// Medians and coverage over the scored flights.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Summary {
+    /// Flights scored.
+    pub scored_flights: usize,
+    /// Flights skipped.
+    pub skipped_flights: usize,
+    /// Per checkpoint.
+    pub checkpoints: Vec<CheckpointSummary>,
+    /// One-sigma coverage of the online estimator.
+    pub coverage: Coverage,
+}
+
+/// Median of a slice (`None` when empty): the diagnosis's one implementation.
+pub use gap::stats::median;
+
+/// Summarises scored flights.
+pub fn summarise(flights: &[FlightReplay], skipped: usize) -> Summary {
+    let checkpoints = FRACTIONS
+        .iter()
+        .enumerate()
+        .map(|(c, &fraction)| {
+            let mut med = BTreeMap::new();
+            let mut count = BTreeMap::new();
+            for (m, name) in METHODS.iter().enumerate() {
+                let errs: Vec<f64> = flights
+                    .iter()
+                    .filter_map(|f| {
+                        f.checkpoints
+                            .get(c)
+                            .and_then(|k| k.error_pct(m, f.duration_s()))
+                            .map(f64::abs)
+                    })
+                    .collect();
+                med.insert(*name, median(&errs));
+                count.insert(*name, errs.len());
+            }
+            CheckpointSummary {
+                fraction,
+                median_abs_error_pct: med,
+                flights: count,
+            }
+        })
+        .collect();
+    let (mut n, mut within) = (0, 0);
+    for k in flights.iter().flat_map(|f| &f.checkpoints) {
+        if let (Some(p), Some(s)) = (k.predicted_remaining_s, k.sigma_s) {
+            n += 1;
+            if (p - k.true_remaining_s).abs() <= s {
+                within += 1;
+            }
+        }
+    }
+    Summary {
+        scored_flights: flights.len(),
+        skipped_flights: skipped,
+        checkpoints,
+        coverage: Coverage {
+            checkpoints: n,
+            within_one_sigma: within,
+            one_sigma: (n > 0).then(|| within as f64 / n as f64),
+        },
+    }
+}
+
+/// A whole replay: scored flights, skipped ones, summary.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Replay {
+    /// Scored flights, in the order given.
+    pub flights: Vec<FlightReplay>,
+    /// Flights left out, with reasons.
+    pub skipped: Vec<SkippedFlight>,
+    /// The summary.
+    pub summary: Summary,
+}
+
+#[derive(Serialize)]
+struct CheckpointJson<'a> {
+    fraction: f64,
+    time_s: f64,
+    true_remaining_s: f64,
+    predicted_remaining_s: Option<f64>,
+    sigma_s: Option<f64>,
+    error_pct: BTreeMap<&'static str, Option<f64>>,
+    baselines: BaselinesView<'a>,
+}
+
+#[derive(Serialize)]
+struct FlightJson<'a> {
+    name: &'a str,
+    takeoff_s: f64,
+    end_s: f64,
+    duration_s: f64,
+    cutoff: &'a CutoffEvidence,
+    checkpoints: Vec<CheckpointJson<'a>>,
+    unavailable: BTreeMap<&'static str, &'a str>,
+    final_state: BTreeMap<&'static str, f64>,
+}
+
+#[derive(Serialize)]
+struct ReplayJson<'a> {
+    methods: [&'static str; 4],
+    flights: Vec<FlightJson<'a>>,
+    skipped: &'a [SkippedFlight],
+    summary: &'a Summary,
+}
+
+impl Replay {
+    /// Builds the summary from flights and skipped ones.
+    pub fn new(flights: Vec<FlightReplay>, skipped: Vec<SkippedFlight>) -> Self {
+        let summary = summarise(&flights, skipped.len());
+        Self {
+            flights,
+            skipped,
+            summary,
+        }
+    }
+
+    /// The `--json` document: `methods`, `flights` (each with `name` and `checkpoints`
+    /// [{`fraction`, `true_remaining_s`, `predicted_remaining_s`, `sigma_s`, `baselines`
+    /// {name: s}}]), `skipped` [{`name`, `reason`}] and `summary`.
+    pub fn to_json(&self) -> serde_json::Value {
+        let flights = self
+            .flights
+            .iter()
+            .map(|f| FlightJson {
+                name: &f.name,
+                takeoff_s: f.takeoff_s,
+                end_s: f.end_s,
+                duration_s: f.duration_s(),
+                cutoff: &f.evidence,
+                checkpoints: f
+                    .checkpoints
+                    .iter()
+                    .map(|k| CheckpointJson {
+                        fraction: k.fraction,
+                        time_s: k.time_s,
+                        true_remaining_s: k.true_remaining_s,
+                        predicted_remaining_s: k.predicted_remaining_s,
+                        sigma_s: k.sigma_s,
+                        error_pct: METHODS
+                            .iter()
+                            .enumerate()
+                            .map(|(m, n)| (*n, k.error_pct(m, f.duration_s())))
+                            .collect(),
+                        baselines: BaselinesView(&k.baselines),
+                    })
+                    .collect(),
+                unavailable: f
+                    .unavailable
+                    .iter()
+                    .map(|(m, r)| (*m, r.as_str()))
+                    .collect(),
+                final_state: f.final_state.iter().copied().collect(),
+            })
+            .collect();
+        serde_json::to_value(ReplayJson {
+            methods: METHODS,
+            flights,
+            skipped: &self.skipped,
+            summary: &self.summary,
+        })
+        .unwrap_or(serde_json::Value::Null)
+    }
+
+    /// The checkpoint table as CSV: one row per flight and checkpoint, predictions and errors
+    /// per method.
+    pub fn to_csv(&self) -> String {
+        let mut s = String::from("flight,fraction,time_s,duration_s,true_remaining_s");
+        for m in METHODS {
+            let _ = write!(s, ",{m}_remaining_s,{m}_error_pct");
+        }
+        s.push_str(",online_sigma_s\n");
+        for f in &self.flights {
+            for k in &f.checkpoints {
+                let _ = write!(
+                    s,
+                    "{},{},{:.2},{:.2},{:.2}",
+                    csv_field(&f.name),
+                    k.fraction,
+                    k.time_s,
+                    f.duration_s(),
+                    k.true_remaining_s
+                );
+                for m in 0..METHODS.len() {
+                    let _ = write!(
+                        s,
+                        ",{},{}",
+                        opt(k.of(m), 2),
+                        opt(k.error_pct(m, f.duration_s()), 3)
+                    );
+                }
+                let _ = writeln!(s, ",{}", opt(k.sigma_s, 2));
+            }
+        }
+        s
+    }
+
+    /// The text report: per flight, per checkpoint, the truth and each method's prediction and
+    /// error; the skipped flights; the summary.
+    pub fn to_text(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "remaining time to the cut-off, predicted sample by sample; error = (predicted - true) / flight duration"
+        );
+        for f in &self.flights {
+            let _ = writeln!(
+                s,
+                "\n{}  flight {:.0} s (take-off {:.1} s, cut-off {:.1} s; {})",
+                f.name,
+                f.duration_s(),
+                f.takeoff_s,
+                f.end_s,
+                match f.evidence {
+                    CutoffEvidence::Metadata => "end = cutoff".to_owned(),
+                    CutoffEvidence::Voltage { final_v, cutoff_v } =>
+                        format!("ends at {final_v:.2} V, cut-off {cutoff_v:.2} V"),
+                }
+            );
+            let _ = writeln!(
+                s,
+                "  {:>5}  {:>8}  {:>18}  {:>16}  {:>16}  {:>16}",
+                "at",
+                "true s",
+                "online s ± σ (err)",
+                "px4 s (err)",
+                "coulomb s (err)",
+                "static s (err)"
+            );
+            for k in &f.checkpoints {
+                let d = f.duration_s();
+                let cell = |m: usize| match (k.of(m), k.error_pct(m, d)) {
+                    (Some(p), Some(e)) => format!("{p:.0} ({e:+.1} %)"),
+                    _ => "-".to_owned(),
+                };
+                let online = match (k.predicted_remaining_s, k.sigma_s, k.error_pct(0, d)) {
+                    (Some(p), Some(sg), Some(e)) => format!("{p:.0} ± {sg:.0} ({e:+.1} %)"),
+                    (Some(_), None, _) => cell(0),
+                    _ => "-".to_owned(),
+                };
+                let _ = writeln!(
+                    s,
+                    "  {:>4.0}%  {:>8.0}  {:>18}  {:>16}  {:>16}  {:>16}",
+                    k.fraction * 100.0,
+                    k.true_remaining_s,
+                    online,
+                    cell(1),
+                    cell(2),
+                    cell(3)
+                );
+            }
+            for (m, r) in &f.unavailable {
+                let _ = writeln!(s, "  {m}: {r}");
+            }
+        }
+        if !self.skipped.is_empty() {
+            let _ = writeln!(s, "\nskipped ({}):", self.skipped.len());
+            for k in &self.skipped {
+                let _ = writeln!(s, "  {}: {}", k.name, k.reason);
+            }
+        }
+        let _ = writeln!(
+            s,
+            "\nsummary over {} flight(s) at the cut-off: median |error|, % of flight duration (flights)",
+            self.summary.scored_flights
+        );
+        let _ = write!(s, "  {:>5}", "at");
+        for m in METHODS {
+            let _ = write!(s, "  {m:>16}");
+        }
+        s.push('\n');
+        for c in &self.summary.checkpoints {
+            let _ = write!(s, "  {:>4.0}%", c.fraction * 100.0);
+            for m in METHODS {
+                let cell = match c.median_abs_error_pct.get(m).copied().flatten() {
+                    Some(v) => format!("{v:.2} % ({})", c.flights[m]),
+                    None => "-".to_owned(),
+                };
+                let _ = write!(s, "  {cell:>16}");
+            }
+            s.push('\n');
+        }
+        let cov = self.summary.coverage;
+        match cov.one_sigma {
+            Some(c) => {
+                let _ = writeln!(
+                    s,
+                    "  {ONLINE} one-sigma band covers the truth at {}/{} checkpoints ({:.0} %)",
+                    cov.within_one_sigma,
+                    cov.checkpoints,
+                    c * 100.0
+                );
+            }
+            None => {
+                let _ = writeln!(s, "  {ONLINE} one-sigma band: no checkpoint scored");
+            }
+        }
+        s
+    }
+}
+
+fn opt(v: Option<f64>, decimals: usize) -> String {
+    v.map_or_else(String::new, |x| format!("{x:.decimals$}"))
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_owned()
+    }
+}

@@ -1,0 +1,138 @@
+//! `hoverbench replay`: the in-flight estimator and its baselines run over logged flights sample
+//! by sample, scored on the flights that end at the cut-off.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use estimator::file::ParamsFile;
+use flightlog::FlightSet;
+use replay::{FlightReplay, Replay, ReplayConfig, SkippedFlight};
+use reports::replay::{ReplayErrorFigure, ReplayFlightFigure, ReplayMethodSeries};
+
+/// Replay flights through the online estimator (with the battery section of the parameter file)
+/// and three baselines — PX4's time_remaining_s, a rated-capacity coulomb counter and the static
+/// model — exactly as firmware would, and score the predicted remaining time at 25, 50, 75 and
+/// 90 % of every flight that ends at the cut-off (others are listed as skipped, with why).
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// The parameter file (params.toml: rig curve, and a [battery] section for the online
+    /// estimator).
+    #[arg(long, value_name = "PARAMS")]
+    params: PathBuf,
+    /// Flight logs or folders of flight logs (with their metadata sidecars).
+    #[arg(required = true, value_name = "FLIGHTS")]
+    flights: Vec<PathBuf>,
+    /// Print machine-readable JSON instead of the table.
+    #[arg(long)]
+    json: bool,
+    /// Write plots (per flight and a summary, SVG and PNG), the table as CSV and the JSON into
+    /// this folder (replaced as a whole, atomically).
+    #[arg(short = 'o', long, value_name = "DIR")]
+    out: Option<PathBuf>,
+}
+
+/// Runs the subcommand.
+pub fn run(args: Args) -> Result<()> {
+    let file = ParamsFile::load(&args.params)?;
+    let params = file
+        .to_params()
+        .with_context(|| format!("{}", args.params.display()))?;
+    let set = FlightSet::read_paths(&args.flights)?;
+    let unread: Vec<SkippedFlight> = set
+        .skipped
+        .iter()
+        .map(|s| SkippedFlight {
+            name: s.path.file_name().map_or_else(
+                || s.path.display().to_string(),
+                |n| n.to_string_lossy().into_owned(),
+            ),
+            reason: s.reason.to_string(),
+        })
+        .collect();
+    let online = replay::online_from_file(&file);
+    let config = ReplayConfig {
+        params,
+        online: online.as_ref().ok().map(|o| o.as_ref()),
+    };
+    let bar = indicatif::ProgressBar::new(set.flights.len() as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} flights, {elapsed}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    if args.json || set.flights.len() < 4 {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    let mut r = replay::replay_flights(&set.flights, unread, &config, |i| {
+        bar.set_position(i as u64)
+    });
+    bar.finish_and_clear();
+    if let Err(e) = &online {
+        for f in &mut r.flights {
+            f.unavailable.retain(|(m, _)| *m != replay::methods::ONLINE);
+            f.unavailable.push((replay::methods::ONLINE, e.clone()));
+        }
+    }
+    if let Some(dir) = &args.out {
+        write_folder(&r, dir)?;
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&r.to_json())?);
+    } else {
+        print!("{}", r.to_text());
+        if let Some(dir) = &args.out {
+            println!("wrote {}", dir.display());
+        }
+    }
+    Ok(())
+}
+
+fn flight_figure(f: &FlightReplay) -> ReplayFlightFigure {
+    ReplayFlightFigure {
+        name: f.name.clone(),
+        time_s: f.series_time_s.iter().map(|t| t - f.takeoff_s).collect(),
+        true_remaining_s: f.series_time_s.iter().map(|t| f.end_s - t).collect(),
+        methods: f
+            .series
+            .iter()
+            .filter(|m| m.remaining_s.iter().any(|v| v.is_finite()))
+            .map(|m| ReplayMethodSeries {
+                name: m.name.to_owned(),
+                remaining_s: m.remaining_s.clone(),
+                sigma_s: m.sigma_s.clone(),
+            })
+            .collect(),
+    }
+}
+
+fn write_folder(r: &Replay, dir: &std::path::Path) -> Result<()> {
+    // every file it writes is named replay*: an earlier run's folder is replaced whole, a
+    // folder holding anything else is refused
+    let staged = outfile::StagedDir::owning(dir, |n| n.starts_with("replay"))?;
+    let flights: Vec<ReplayFlightFigure> = r.flights.iter().map(flight_figure).collect();
+    let summary = ReplayErrorFigure {
+        flights: r.summary.scored_flights,
+        fractions: replay::FRACTIONS.to_vec(),
+        methods: replay::METHODS
+            .iter()
+            .map(|m| {
+                (
+                    (*m).to_owned(),
+                    r.summary
+                        .checkpoints
+                        .iter()
+                        .map(|c| c.median_abs_error_pct[m].unwrap_or(f64::NAN))
+                        .collect(),
+                )
+            })
+            .collect(),
+    };
+    reports::replay::write_replay_figures(&flights, &summary, staged.path())?;
+    outfile::write_atomic(
+        &staged.path().join("replay.json"),
+        serde_json::to_string_pretty(&r.to_json())?.as_bytes(),
+    )?;
+    outfile::write_atomic(&staged.path().join("replay.csv"), r.to_csv().as_bytes())?;
+    outfile::write_atomic(&staged.path().join("replay.txt"), r.to_text().as_bytes())?;
+    staged.commit()?;
+    Ok(())
+}

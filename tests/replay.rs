@@ -1,0 +1,187 @@
+//! `hoverbench replay` and `hoverbench battery learn` end to end, on the simulated flights of
+//! `tests/data/replay` (see its README).
+
+use std::path::Path;
+
+use serde_json::Value;
+
+mod common;
+use common::{ok, run};
+
+const DATA: &str = "tests/data/replay/flights";
+
+fn params() -> String {
+    "tests/data/replay/params.toml".to_owned()
+}
+
+#[test]
+fn text_table_of_a_small_set() {
+    let text = ok(&["replay", "--params", &params(), DATA]);
+    insta::assert_snapshot!(text);
+}
+
+#[test]
+fn json_has_flights_checkpoints_skipped_and_a_summary_that_matches_them() {
+    let v: Value =
+        serde_json::from_str(&ok(&["replay", "--params", &params(), DATA, "--json"])).unwrap();
+    let flights = v["flights"].as_array().unwrap();
+    assert_eq!(flights.len(), 4);
+    let skipped = v["skipped"].as_array().unwrap();
+    assert_eq!(skipped.len(), 2);
+    let reason = |name: &str| {
+        skipped.iter().find(|s| s["name"] == name).unwrap()["reason"]
+            .as_str()
+            .unwrap()
+            .to_owned()
+    };
+    assert!(reason("13-landed-A").contains("landed"));
+    assert!(reason("14-stopped-A").contains("above its 9.00 V cut-off"));
+    for f in flights {
+        let cps = f["checkpoints"].as_array().unwrap();
+        let fractions: Vec<f64> = cps
+            .iter()
+            .map(|c| c["fraction"].as_f64().unwrap())
+            .collect();
+        assert_eq!(fractions, [0.25, 0.5, 0.75, 0.9]);
+        let d = f["duration_s"].as_f64().unwrap();
+        for c in cps {
+            // The truth is the time from the scored sample to the flight's end.
+            let t = c["time_s"].as_f64().unwrap();
+            let end = f["end_s"].as_f64().unwrap();
+            assert!((c["true_remaining_s"].as_f64().unwrap() - (end - t)).abs() < 1e-9);
+            assert!(c["predicted_remaining_s"].as_f64().unwrap() > 0.0);
+            assert!(c["sigma_s"].as_f64().unwrap() > 0.0);
+            for b in ["px4", "coulomb", "static_model"] {
+                assert!(c["baselines"][b].as_f64().is_some(), "{b}");
+            }
+            let p = c["predicted_remaining_s"].as_f64().unwrap();
+            let e = c["error_pct"]["online"].as_f64().unwrap();
+            assert!((e - (p - (end - t)) / d * 100.0).abs() < 1e-9);
+        }
+    }
+    // The summary's median at 50 % is the median of the flights' absolute errors there.
+    let mut errs: Vec<f64> = flights
+        .iter()
+        .map(|f| {
+            f["checkpoints"][1]["error_pct"]["online"]
+                .as_f64()
+                .unwrap()
+                .abs()
+        })
+        .collect();
+    errs.sort_by(f64::total_cmp);
+    let median = 0.5 * (errs[1] + errs[2]);
+    let s = &v["summary"]["checkpoints"][1];
+    assert_eq!(s["fraction"], 0.5);
+    assert!((s["median_abs_error_pct"]["online"].as_f64().unwrap() - median).abs() < 1e-12);
+    let cov = &v["summary"]["coverage"];
+    assert_eq!(cov["checkpoints"], 16);
+}
+
+#[test]
+fn out_folder_has_plots_table_and_json_and_is_replaced_whole() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("replay");
+    let o = out.to_str().unwrap();
+    std::fs::create_dir_all(&out).unwrap();
+    // a folder holding someone else's file is refused, untouched
+    std::fs::write(out.join("thesis.tex"), "mine").unwrap();
+    let refused = run(&["replay", "--params", &params(), DATA, "-o", o]);
+    assert_eq!(refused.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("thesis.tex"));
+    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 1);
+    std::fs::remove_file(out.join("thesis.tex")).unwrap();
+    // an earlier run's folder is replaced whole (its stale plot goes)
+    std::fs::write(out.join("replay-flight-99-gone.svg"), "old").unwrap();
+    ok(&["replay", "--params", &params(), DATA, "-o", o]);
+    for f in [
+        "replay-flight-01-9-hover-A.svg",
+        "replay-flight-02-10-attach-B.png",
+        "replay-error-by-checkpoint.svg",
+        "replay-error-by-checkpoint.png",
+        "replay.csv",
+        "replay.json",
+        "replay.txt",
+    ] {
+        assert!(out.join(f).exists(), "{f}");
+    }
+    assert!(!out.join("replay-flight-99-gone.svg").exists());
+    let csv = std::fs::read_to_string(out.join("replay.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 4 * 4);
+    assert!(
+        csv.starts_with("flight,fraction,time_s,duration_s,true_remaining_s,online_remaining_s")
+    );
+}
+
+#[test]
+fn without_a_battery_section_the_baselines_still_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(params()).unwrap();
+    let cut = text.find("[battery]").unwrap();
+    let p = dir.path().join("params.toml");
+    std::fs::write(&p, &text[..cut]).unwrap();
+    let v: Value = serde_json::from_str(&ok(&[
+        "replay",
+        "--params",
+        p.to_str().unwrap(),
+        &format!("{DATA}/9-hover-A.csv"),
+        "--json",
+    ]))
+    .unwrap();
+    let f = &v["flights"][0];
+    assert!(f["checkpoints"][1]["predicted_remaining_s"].is_null());
+    assert!(f["checkpoints"][1]["baselines"]["px4"].as_f64().is_some());
+    assert!(
+        f["unavailable"]["online"]
+            .as_str()
+            .unwrap()
+            .contains("no [battery] section")
+    );
+}
+
+#[test]
+fn battery_learn_writes_the_section_and_keeps_the_curve() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(params()).unwrap();
+    let cut = text.find("[battery]").unwrap();
+    let p = dir.path().join("params.toml");
+    std::fs::write(&p, &text[..cut]).unwrap();
+    let ps = p.to_str().unwrap();
+    // Two pack types and none picked: an error naming both.
+    let out = run(&["battery", "learn", "--params", ps, DATA]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("lipo-A") && err.contains("lipo-B"), "{err}");
+    assert_eq!(std::fs::read_to_string(&p).unwrap(), &text[..cut]);
+    let v: Value = serde_json::from_str(&ok(&[
+        "battery",
+        "learn",
+        "--params",
+        ps,
+        "--battery-type",
+        "lipo-A",
+        DATA,
+        "--json",
+    ]))
+    .unwrap();
+    assert_eq!(v["battery"]["cells"], 3);
+    assert_eq!(v["battery"]["ocv_cell_v"].as_array().unwrap().len(), 21);
+    let written = std::fs::read_to_string(&p).unwrap();
+    assert!(written.starts_with(&text[..text.find("[provenance]").unwrap()]));
+    assert!(written.contains("[battery]\nversion = 1\ncells = 3\n"));
+    // The file replays with the online estimator.
+    let r: Value = serde_json::from_str(&ok(&[
+        "replay",
+        "--params",
+        ps,
+        &format!("{DATA}/9-hover-A.csv"),
+        "--json",
+    ]))
+    .unwrap();
+    assert!(
+        r["flights"][0]["checkpoints"][1]["predicted_remaining_s"]
+            .as_f64()
+            .is_some()
+    );
+    assert!(Path::new(ps).exists());
+}
