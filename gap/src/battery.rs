@@ -22,8 +22,9 @@
 //!   constant τ): 21 open-circuit knots as deviations from a chemistry prior with a smoothness
 //!   penalty on their second differences and a pull towards the prior (σ 0.03 V when the
 //!   chemistry is given, 0.3 V when it is not), `R₀ ≥ 0`, `R₁ ≥ 0`, τ from a grid; the knots are then made monotone by isotonic
-//!   regression. The priors whose full-charge voltage lies within 80 mV of the best match to the
-//!   flights' highest resting voltage per cell are tried (a full pack's resting voltage is the
+//!   regression. The priors on the voltage level of the flights' highest resting voltage per
+//!   cell are tried (full-charge voltages fall in two levels, LiFePO₄ near 3.6 V and the
+//!   cobalt/nickel chemistries at 4.2–4.35 V; the level of a full pack's resting voltage is the
 //!   plainest signature of its chemistry) and the one fitting best is kept.
 //! - **Chemistry priors** ([`Chemistry`]) are built from measured electrode potentials copied
 //!   from PyBaMM (`gap/data/pybamm/`, BSD-3-Clause): LiPo and LiHV (LiCoO₂/graphite, Ai 2020),
@@ -525,10 +526,14 @@ const FULL_START_CELL_V: f64 = 0.03;
 const MAX_SOC_AT_CUTOFF: f64 = 0.15;
 
 /// Priors whose full-charge voltage lies further than this above the best match's distance
-/// from the flights' highest resting voltage per cell are not tried: a full pack's resting
-/// voltage is the plainest signature of its chemistry (LiFePO₄ 3.6 V, LiPo and Li-ion 4.1–4.2
-/// V, LiHV 4.35 V).
-const PRIOR_FULL_MATCH_CELL_V: f64 = 0.08;
+/// from the flights' highest resting voltage per cell are not tried: the level of a full pack's
+/// resting voltage is the plainest signature of its chemistry (LiFePO₄ 3.6 V against 4.2–4.35 V
+/// for LiPo, LiHV and Li-ion). The window spans a level (LiPo to LiHV, 0.15 V) and stops short
+/// of the other (0.6 V away): within a level every prior is tried and the best fit decides, as
+/// a partly charged or warm pack's resting voltage does not tell LiPo from LiHV or NMC. (An 80
+/// mV window, narrowing the choice within a level too, made 8 of 40 predictions on the tuning
+/// families worse.)
+const PRIOR_FULL_MATCH_CELL_V: f64 = 0.3;
 
 /// What the charge counted over the flights says about a battery type's usable capacity.
 #[derive(Debug, Clone, Copy, PartialEq)]
