@@ -97,6 +97,7 @@ fn voltage_only_logs_have_no_current_column() {
             .starts_with("time_s,voltage_v,phase,altitude_m\n")
     );
     assert!(set.train[0].toml.contains("cells = 4"));
+    assert!(set.train[0].toml.contains("ceiling_height_m = 2.5\n"));
 }
 
 #[test]

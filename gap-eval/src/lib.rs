@@ -262,14 +262,9 @@ pub fn run_scenario(seed: u64, families: &[Family]) -> Result<ScenarioResult, Ev
     let train = read_back(&set.train)?;
     let heldout = read_back(&set.heldout)?;
     let curve = rig_curve(&set.rig)?;
-    // Blind: flights (read from their files), the rig curve, rotors and the hall's ceiling.
-    let o = adapter::diagnose_blind(
-        &train,
-        &heldout,
-        &curve,
-        set.rig.rotor_count,
-        Some(set.ceiling_height_m),
-    )?;
+    // Blind: flights (read from their files, the hall's ceiling in their metadata), the rig
+    // curve and the rotors.
+    let o = adapter::diagnose_blind(&train, &heldout, &curve, set.rig.rotor_count)?;
     Ok(score(&set.truth, &family, &o))
 }
 

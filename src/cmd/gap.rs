@@ -37,7 +37,8 @@ pub struct Args {
     #[arg(short, long, value_name = "DIR")]
     output: Option<PathBuf>,
     /// A measured open-circuit curve of one cell (`soc,ocv_v` CSV) that overrides the curve the
-    /// diagnosis learns from the flights (the resistances are still learned).
+    /// diagnosis learns from the flights (the resistances are still learned), for every pack;
+    /// per pack, the metadata key `battery_ocv_csv` does the same.
     #[arg(long, value_name = "CSV")]
     battery_ocv_csv: Option<PathBuf>,
     /// The packs' chemistry, when known: lipo, lihv, li_ion_nmc, li_ion_nca or lifepo4 (only
@@ -108,6 +109,9 @@ fn read(
             });
             match record_from_log(f) {
                 Ok(r) => out.push(r),
+                // A curve the user gave that does not read is their mistake to fix, not a flight
+                // to leave out.
+                Err(e @ gap::GapError::BatteryCurve { .. }) => return Err(e.into()),
                 Err(e) => skipped.push((f.source.display().to_string(), e.to_string())),
             }
         }
