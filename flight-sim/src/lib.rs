@@ -45,7 +45,7 @@ use serde::Serialize;
 pub use mission::{FlightPlan, HALL_CEILING_M, Leg, plans};
 pub use robot::{Propulsion, Robot};
 pub use simulate::{SimFlight, simulate};
-pub use world::{Chemistry, EffectKind, Family, Logging, RobotVariant, Withheld};
+pub use world::{Chemistry, EffectKind, Family, Logging, NoFamily, RobotVariant, Withheld};
 
 /// A pack as its label says.
 #[derive(Debug, Clone, PartialEq)]

@@ -366,6 +366,8 @@ pub(crate) fn run(
     let _ = writeln!(toml, "ambient_temperature_c = {logged_ambient_c:.1}");
     let _ = writeln!(toml, "air_density_kg_m3 = {logged_rho:.4}");
     let _ = writeln!(toml, "cutoff_voltage_v = {cutoff_v}");
+    // Site knowledge a pilot writes down: the hall's ceiling above the take-off point.
+    let _ = writeln!(toml, "ceiling_height_m = {HALL_CEILING_M:?}");
     let _ = writeln!(
         toml,
         "end = \"{}\"",

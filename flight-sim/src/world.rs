@@ -322,7 +322,48 @@ impl Family {
                 .zip(&mine)
                 .all(|(p, m)| *p == "*" || p.eq_ignore_ascii_case(m))
     }
+
+    /// The families a comma-separated filter selects, in order, without repeats: family
+    /// patterns (see [`Family::matches`]), `all`, and `tuning` / `heldout` (or `held-out`) by
+    /// the study's own `is_tuning` (which families a study tunes on is the study's choice, not
+    /// the worlds'). A part that selects nothing (or an empty filter) is an error naming it.
+    pub fn select(
+        filter: &str,
+        is_tuning: impl Fn(&Family) -> bool,
+    ) -> Result<Vec<Family>, NoFamily> {
+        let all = Family::all();
+        let mut out: Vec<Family> = Vec::new();
+        for part in filter.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+            let hits: Vec<Family> = all
+                .iter()
+                .copied()
+                .filter(|f| match part {
+                    "all" => true,
+                    "tuning" => is_tuning(f),
+                    "heldout" | "held-out" => !is_tuning(f),
+                    p => f.matches(p),
+                })
+                .collect();
+            if hits.is_empty() {
+                return Err(NoFamily(part.to_owned()));
+            }
+            for h in hits {
+                if !out.contains(&h) {
+                    out.push(h);
+                }
+            }
+        }
+        if out.is_empty() {
+            return Err(NoFamily(filter.to_owned()));
+        }
+        Ok(out)
+    }
 }
+
+/// A family filter part that selects no family ([`Family::select`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("no world family matches {0:?} (families are chemistry/logging/robot, e.g. lfp/*/paper)")]
+pub struct NoFamily(pub String);
 
 /// An effect a scenario can switch on and withhold from the model. The names of the first
 /// eight are those of the diagnosis's library (so the study can score verdicts); each is

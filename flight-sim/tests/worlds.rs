@@ -97,6 +97,7 @@ fn voltage_only_logs_have_no_current_column() {
             .starts_with("time_s,voltage_v,phase,altitude_m\n")
     );
     assert!(set.train[0].toml.contains("cells = 4"));
+    assert!(set.train[0].toml.contains("ceiling_height_m = 2.5\n"));
 }
 
 #[test]
@@ -135,4 +136,23 @@ fn dropped_samples_never_leave_a_hole_a_reader_rejects() {
             );
         }
     }
+}
+
+#[test]
+fn families_are_selected_by_patterns_and_the_study_s_tuning_choice() {
+    let lfp_tuned = |f: &Family| f.chemistry == Chemistry::LiFePo4;
+    assert_eq!(Family::select("all", lfp_tuned).unwrap().len(), 40);
+    let t = Family::select("tuning", lfp_tuned).unwrap();
+    assert_eq!(t.len(), 8);
+    assert!(t.iter().all(lfp_tuned));
+    assert_eq!(Family::select("held-out", lfp_tuned).unwrap().len(), 32);
+    // In order, without repeats.
+    let s = Family::select(" */vonly-5hz/paper , lfp/*/paper,lfp", |_| false).unwrap();
+    assert_eq!(s.len(), 5 + 3 + 4);
+    assert_eq!(s[0].name(), "lipo/vonly-5hz/paper");
+    let e = Family::select("lfp,lead-acid", lfp_tuned).unwrap_err();
+    assert_eq!(e.0, "lead-acid");
+    assert!(e.to_string().contains("lead-acid"), "{e}");
+    assert!(Family::select(" , ", lfp_tuned).is_err());
+    assert!(Family::select("tuning", |_| false).is_err());
 }

@@ -93,10 +93,19 @@ pub struct FlightMeta {
     /// then are `attached` phases inferred.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub perches: Option<bool>,
+    /// A measured open-circuit curve of the pack, `soc,ocv_v` per cell (CSV), that overrides
+    /// the chemistry prior of the gap diagnosis. Written relative to the metadata file; read
+    /// ([`FlightMeta::parse`], [`FlightMeta::read`]) it is that file's folder joined with it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub battery_ocv_csv: Option<PathBuf>,
+    /// Height of the ceiling above the take-off point, m (site knowledge: where a ceiling
+    /// effect can act).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ceiling_height_m: Option<f64>,
 }
 
 /// Keys that must be positive, with their accessors, for validation.
-const POSITIVE_KEYS: [&str; 10] = [
+const POSITIVE_KEYS: [&str; 11] = [
     "structure_mass_kg",
     "battery_mass_kg",
     "battery_energy_density_wh_per_kg",
@@ -107,12 +116,13 @@ const POSITIVE_KEYS: [&str; 10] = [
     "capacity_mah",
     "charged_voltage_v",
     "arm_voltage_v",
+    "ceiling_height_m",
 ];
 
 impl FlightMeta {
     /// Parses and validates the text of a metadata file; `path` names it in errors.
     pub fn parse(text: &str, path: &Path) -> Result<Self, FlightLogError> {
-        let meta: Self = toml::from_str(text).map_err(|e| {
+        let mut meta: Self = toml::from_str(text).map_err(|e| {
             let (line, column) = e
                 .span()
                 .map_or((1, 1), |span| line_column(text.as_bytes(), span.start));
@@ -124,7 +134,19 @@ impl FlightMeta {
             }
         })?;
         meta.validate(path, Some(text))?;
+        meta.resolve_paths(path);
         Ok(meta)
+    }
+
+    /// Makes a relative `battery_ocv_csv` relative to the folder of the metadata file at
+    /// `path` (as it is written), so that it names the same file from anywhere.
+    pub fn resolve_paths(&mut self, path: &Path) {
+        if let Some(p) = &self.battery_ocv_csv
+            && p.is_relative()
+            && let Some(dir) = path.parent()
+        {
+            self.battery_ocv_csv = Some(dir.join(p));
+        }
     }
 
     /// Reads and validates a metadata file.
@@ -191,6 +213,11 @@ impl FlightMeta {
             vehicle: self.vehicle.or(defaults.vehicle),
             frame: self.frame.clone().or_else(|| defaults.frame.clone()),
             perches: self.perches.or(defaults.perches),
+            battery_ocv_csv: self
+                .battery_ocv_csv
+                .clone()
+                .or_else(|| defaults.battery_ocv_csv.clone()),
+            ceiling_height_m: self.ceiling_height_m.or(defaults.ceiling_height_m),
         }
     }
 
@@ -237,6 +264,7 @@ impl FlightMeta {
             self.capacity_mah,
             self.charged_voltage_v,
             self.arm_voltage_v,
+            self.ceiling_height_m,
         ];
         for (key, value) in POSITIVE_KEYS.iter().zip(positive) {
             if let Some(v) = value
@@ -263,6 +291,15 @@ impl FlightMeta {
             return Err(fail(
                 "hover_throttle",
                 format!("{h} is not a throttle in (0, 1]"),
+            ));
+        }
+        if let Some(p) = &self.battery_ocv_csv
+            && p.as_os_str().is_empty()
+        {
+            return Err(fail(
+                "battery_ocv_csv",
+                "is empty: give the path of a `soc,ocv_v` CSV file, relative to this file"
+                    .to_owned(),
             ));
         }
         if let Some(t) = self.ambient_temperature_c
@@ -454,6 +491,82 @@ mod tests {
         )
         .unwrap_err();
         assert!(err.to_string().contains("not both"), "{err}");
+    }
+
+    #[test]
+    fn battery_ocv_csv_is_relative_to_the_metadata_file() {
+        let m = FlightMeta::parse(
+            "battery_ocv_csv = \"curves/pack-a.csv\"\n",
+            Path::new("/data/flights/a.toml"),
+        )
+        .unwrap();
+        assert_eq!(
+            m.battery_ocv_csv.as_deref(),
+            Some(Path::new("/data/flights/curves/pack-a.csv"))
+        );
+        let abs = FlightMeta::parse(
+            "battery_ocv_csv = \"/curves/b.csv\"\n",
+            Path::new("/data/a.toml"),
+        )
+        .unwrap();
+        assert_eq!(
+            abs.battery_ocv_csv.as_deref(),
+            Some(Path::new("/curves/b.csv"))
+        );
+        // A sidecar's curve overrides the folder's, key by key.
+        let folder = FlightMeta::parse(
+            "battery_ocv_csv = \"lipo.csv\"\ncells = 3\n",
+            Path::new("/d/flights.toml"),
+        )
+        .unwrap();
+        let merged = FlightMeta::parse("cells = 4\n", Path::new("/d/x.toml"))
+            .unwrap()
+            .merged_over(&folder);
+        assert_eq!(
+            merged.battery_ocv_csv.as_deref(),
+            Some(Path::new("/d/lipo.csv"))
+        );
+        assert_eq!(merged.cells, Some(4));
+    }
+
+    #[test]
+    fn bad_battery_ocv_csv_and_ceiling_height_name_file_line_and_key() {
+        let err = FlightMeta::parse("cells = 3\nbattery_ocv_csv = \"\"\n", Path::new("f.toml"))
+            .unwrap_err();
+        assert!(
+            matches!(&err, FlightLogError::Meta { line: 2, key, .. } if key == "battery_ocv_csv"),
+            "{err}"
+        );
+        let text = err.to_string();
+        assert!(
+            text.contains("f.toml") && text.contains("battery_ocv_csv"),
+            "{text}"
+        );
+        // Not a string: the TOML error with line and column.
+        let err = FlightMeta::parse("battery_ocv_csv = 3\n", Path::new("f.toml")).unwrap_err();
+        assert!(
+            matches!(&err, FlightLogError::Toml { line: 1, .. }),
+            "{err}"
+        );
+        let err =
+            FlightMeta::parse("\n\nceiling_height_m = -2.5\n", Path::new("g.toml")).unwrap_err();
+        assert!(
+            matches!(&err, FlightLogError::Meta { line: 3, key, .. } if key == "ceiling_height_m"),
+            "{err}"
+        );
+        assert!(err.to_string().contains("-2.5"), "{err}");
+        let err =
+            FlightMeta::parse("ceiling_height_m = \"high\"\n", Path::new("g.toml")).unwrap_err();
+        assert!(
+            matches!(&err, FlightLogError::Toml { line: 1, .. }),
+            "{err}"
+        );
+        let m = FlightMeta::parse("ceiling_height_m = 3.2\n", Path::new("g.toml")).unwrap();
+        assert_eq!(m.ceiling_height_m, Some(3.2));
+        assert_eq!(
+            m.entries().get("ceiling_height_m"),
+            Some(&toml::Value::Float(3.2))
+        );
     }
 
     #[test]

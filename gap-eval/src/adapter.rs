@@ -3,9 +3,8 @@
 //! Everything the study needs from the diagnosis goes through [`diagnose_blind`]: flights read
 //! from their files by `flightlog`, converted by `gap::logs::record_from_log`, diagnosed by
 //! `gap::diagnose::diagnose` against the rig curve, and the result reduced to plain names and
-//! numbers ([`Outcome`]). No label, seed or family crosses here: only flights, the rig curve,
-//! the rotor count and the hall's ceiling height (site knowledge the flight-log metadata has no
-//! key for yet).
+//! numbers ([`Outcome`]). No label, seed or family crosses here: only flights (whose metadata
+//! carries the site's ceiling height, `ceiling_height_m`), the rig curve and the rotor count.
 
 use estimator::PolyCurve;
 use flightlog::Flight;
@@ -40,17 +39,10 @@ pub fn diagnose_blind(
     heldout: &[Flight],
     curve: &PolyCurve,
     rotor_count: u8,
-    ceiling_height_m: Option<f64>,
 ) -> Result<Outcome, EvalError> {
     let convert = |fs: &[Flight]| -> Result<Vec<FlightRecord>, EvalError> {
         fs.iter()
-            .map(|f| {
-                let mut r = record_from_log(f).map_err(|e| EvalError::Diagnosis(e.to_string()))?;
-                if r.info.ceiling_height_m.is_none() {
-                    r.info.ceiling_height_m = ceiling_height_m;
-                }
-                Ok(r)
-            })
+            .map(|f| record_from_log(f).map_err(|e| EvalError::Diagnosis(e.to_string())))
             .collect()
     };
     let tr = convert(train)?;

@@ -74,34 +74,9 @@ pub fn is_tuning_family(f: &Family) -> bool {
 }
 
 /// Families matching a comma-separated filter: family patterns (`lfp`, `*/fc-10hz`,
-/// `lipo/lab-1hz/paper`), `tuning`, `heldout`, or `all`.
+/// `lipo/lab-1hz/paper`), `tuning`, `heldout` (by [`is_tuning_family`]), or `all`.
 pub fn select_families(filter: &str) -> Result<Vec<Family>, EvalError> {
-    let all = Family::all();
-    let mut out: Vec<Family> = Vec::new();
-    for part in filter.split(',').map(str::trim).filter(|p| !p.is_empty()) {
-        let hits: Vec<Family> = all
-            .iter()
-            .copied()
-            .filter(|f| match part {
-                "all" => true,
-                "tuning" => is_tuning_family(f),
-                "heldout" | "held-out" => !is_tuning_family(f),
-                p => f.matches(p),
-            })
-            .collect();
-        if hits.is_empty() {
-            return Err(EvalError::NoFamily(part.to_owned()));
-        }
-        for h in hits {
-            if !out.contains(&h) {
-                out.push(h);
-            }
-        }
-    }
-    if out.is_empty() {
-        return Err(EvalError::NoFamily(filter.to_owned()));
-    }
-    Ok(out)
+    Family::select(filter, is_tuning_family).map_err(|e| EvalError::NoFamily(e.0))
 }
 
 /// Reads simulated flights back from their file bytes, exactly as from a folder: the CSV by the
@@ -262,14 +237,9 @@ pub fn run_scenario(seed: u64, families: &[Family]) -> Result<ScenarioResult, Ev
     let train = read_back(&set.train)?;
     let heldout = read_back(&set.heldout)?;
     let curve = rig_curve(&set.rig)?;
-    // Blind: flights (read from their files), the rig curve, rotors and the hall's ceiling.
-    let o = adapter::diagnose_blind(
-        &train,
-        &heldout,
-        &curve,
-        set.rig.rotor_count,
-        Some(set.ceiling_height_m),
-    )?;
+    // Blind: flights (read from their files, the hall's ceiling in their metadata), the rig
+    // curve and the rotors.
+    let o = adapter::diagnose_blind(&train, &heldout, &curve, set.rig.rotor_count)?;
     Ok(score(&set.truth, &family, &o))
 }
 

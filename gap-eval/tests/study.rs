@@ -46,7 +46,6 @@ fn a_withheld_effect_opens_a_held_out_gap() {
             &read_back(&set.heldout).unwrap(),
             &rig_curve(&set.rig).unwrap(),
             4,
-            Some(set.ceiling_height_m),
         )
         .unwrap();
         (

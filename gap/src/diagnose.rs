@@ -65,9 +65,9 @@ pub struct DiagnoseOptions {
     /// A measured open-circuit curve that overrides the learned one's shape (every battery
     /// type), from `--battery-ocv-csv`.
     pub measured_ocv: Option<LearnedBattery>,
-    /// The packs' chemistry when known (`--chemistry`): only its prior is tried. Unknown, every
-    /// prior is tried and the best-fitting kept — and then a lost capacity cannot be told from
-    /// a chemistry whose knee comes earlier (see [`crate::battery`]).
+    /// The packs' chemistry when known (`--chemistry`): only its prior is tried. Unknown, the
+    /// priors matching the flights' full resting voltage are tried and the best-fitting kept
+    /// (see [`crate::battery`]).
     pub chemistry: Option<Chemistry>,
 }
 
@@ -704,7 +704,17 @@ pub fn learn_batteries<C: PowerCurve>(
     let mut types: Vec<String> = data.iter().map(|d| battery_type(d.flight)).collect();
     types.sort();
     types.dedup();
-    let measured = opts.measured_ocv.as_ref();
+    // A measured curve: `--battery-ocv-csv` for every type, else the one a type's flights name
+    // in their metadata (`battery_ocv_csv`; the first flight's when they differ).
+    let measured_of = |ds: &[BatteryData<'_>]| -> (Option<LearnedBattery>, bool) {
+        if let Some(m) = opts.measured_ocv {
+            return (Some(m), false);
+        }
+        let mut given = ds.iter().filter_map(|d| d.flight.info.measured_ocv);
+        let first = given.next();
+        let differ = first.is_some_and(|a| given.any(|b| b != a));
+        (first, differ)
+    };
     let mut fits: Vec<BatteryFit> = types
         .iter()
         .map(|t| {
@@ -713,13 +723,30 @@ pub fn learn_batteries<C: PowerCurve>(
                 .filter(|d| battery_type(d.flight) == *t)
                 .cloned()
                 .collect();
-            fit_battery(t, &mine, measured, opts.chemistry)
+            let (measured, differ) = measured_of(&mine);
+            let mut fit = fit_battery(t, &mine, measured.as_ref(), opts.chemistry);
+            if differ {
+                fit.note.push_str(
+                    "; its flights name different measured curves (battery_ocv_csv): the first flight's is used",
+                );
+            }
+            fit
         })
         .collect();
     let pooled_fit = if fits.len() == 1 {
         fits[0].clone()
     } else {
-        fit_battery("all training flights", &data, measured, opts.chemistry)
+        // Pooled over types, a measured curve only when every flight names the same one.
+        let (measured, differ) = measured_of(&data);
+        let all_named = opts.measured_ocv.is_some()
+            || data.iter().all(|d| d.flight.info.measured_ocv.is_some());
+        let measured = measured.filter(|_| all_named && !differ);
+        fit_battery(
+            "all training flights",
+            &data,
+            measured.as_ref(),
+            opts.chemistry,
+        )
     };
     let pooled = pooled_fit.battery;
     // A type whose own data could not teach the shape borrows the pooled shape.

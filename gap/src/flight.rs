@@ -41,6 +41,10 @@ pub struct FlightInfo {
     pub ended_at_cutoff: bool,
     /// Height of the ceiling above the take-off point, m, when known.
     pub ceiling_height_m: Option<f64>,
+    /// The pack's measured open-circuit curve (metadata `battery_ocv_csv`), when given: it
+    /// overrides the chemistry prior for the flight's battery type.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub measured_ocv: Option<crate::battery::LearnedBattery>,
 }
 
 impl FlightInfo {

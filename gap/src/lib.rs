@@ -68,7 +68,6 @@ pub mod model;
 pub mod params_link;
 pub mod stats;
 pub mod summary;
-pub mod write;
 
 /// What can go wrong in the diagnosis.
 #[derive(Debug, thiserror::Error)]
@@ -87,6 +86,18 @@ pub enum GapError {
         flight: String,
         /// What is missing.
         missing: String,
+    },
+    /// A flight's measured open-circuit curve (metadata `battery_ocv_csv`) does not read.
+    #[error("flight {flight}: battery_ocv_csv = {} (set in {set_in}): {message}", csv.display())]
+    BatteryCurve {
+        /// The flight.
+        flight: String,
+        /// The curve's file, as the metadata names it (joined with the metadata file's folder).
+        csv: std::path::PathBuf,
+        /// The metadata file that set the key.
+        set_in: String,
+        /// What is wrong (with the CSV's line when it is in the file).
+        message: String,
     },
     /// No flights to train on or to check against.
     #[error("no {0} flights: the diagnosis needs at least one")]

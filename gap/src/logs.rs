@@ -3,10 +3,11 @@
 //! training flights.
 
 use estimator::{EstimateError, PowerCurve};
-use flightlog::{End, Flight, PhaseSource};
+use flightlog::{End, Flight, MetaSource, PhaseSource};
 use serde::Serialize;
 
 use crate::GapError;
+use crate::battery::LearnedBattery;
 use crate::diagnose::{BatterySet, DiagnoseOptions, Diagnosis, diagnose_with, learn_batteries};
 use crate::flight::{FlightInfo, FlightRecord, Phase};
 use crate::model::{EffectParams, Model};
@@ -58,9 +59,34 @@ pub fn record_from_log(f: &Flight) -> Result<FlightRecord, GapError> {
                 .cutoff_voltage_v
                 .unwrap_or(f64::from(cells) * DEFAULT_CUTOFF_CELL_V),
             ended_at_cutoff: m.end == Some(End::Cutoff),
-            ceiling_height_m: None,
+            ceiling_height_m: m.ceiling_height_m,
+            measured_ocv: measured_curve(f)?,
         },
     })
+}
+
+/// The measured open-circuit curve a flight's metadata names (`battery_ocv_csv`), read.
+fn measured_curve(f: &Flight) -> Result<Option<LearnedBattery>, GapError> {
+    let Some(csv) = &f.meta.battery_ocv_csv else {
+        return Ok(None);
+    };
+    let set_in = match f.metadata.get("battery_ocv_csv").map(|v| &v.source) {
+        Some(MetaSource::Folder { path } | MetaSource::Sidecar { path }) => {
+            path.display().to_string()
+        }
+        Some(other) => other.to_string(),
+        None => "the flight's metadata".to_owned(),
+    };
+    let fail = |message: String| GapError::BatteryCurve {
+        flight: f.name.clone(),
+        csv: csv.clone(),
+        set_in: set_in.clone(),
+        message,
+    };
+    let text = std::fs::read_to_string(csv).map_err(|e| fail(format!("reading it: {e}")))?;
+    LearnedBattery::from_ocv_csv(&text)
+        .map(Some)
+        .map_err(|e| fail(e.to_string()))
 }
 
 /// Checks that a flight gives the masses a rig baseline needs.
@@ -372,31 +398,9 @@ pub fn split_flights(
     (train, held, SplitRule::EveryThirdByName)
 }
 
-/// Compares names with embedded numbers naturally ("2" before "10").
-///
-/// A copy of `flightlog`'s (crate-private there); to be replaced by it once `flightlog` exports
-/// it.
-pub fn natural_cmp(a: &str, b: &str) -> std::cmp::Ordering {
-    let key = |s: &str| -> Vec<(String, u64)> {
-        let mut out = Vec::new();
-        let mut text = String::new();
-        let mut num = String::new();
-        for ch in s.chars() {
-            if ch.is_ascii_digit() {
-                num.push(ch);
-            } else {
-                if !num.is_empty() {
-                    out.push((std::mem::take(&mut text), num.parse().unwrap_or(u64::MAX)));
-                    num.clear();
-                }
-                text.push(ch);
-            }
-        }
-        out.push((text, num.parse().unwrap_or(0)));
-        out
-    };
-    key(a).cmp(&key(b))
-}
+/// Compares names with embedded numbers naturally ("2" before "10"): `flightlog`'s order,
+/// the one natural order of the workspace.
+pub use flightlog::natural_cmp;
 
 /// One held-out flight's voltage, measured and predicted before and after (for plots).
 #[derive(Debug, Clone, Serialize)]
@@ -496,6 +500,7 @@ pub fn run<C: PowerCurve>(
             // resistance would explain the same voltage, and the joint fit drifts there.
             let prior = BatterySet::fixed(
                 opts.measured_ocv
+                    .or_else(|| train.iter().find_map(|f| f.info.measured_ocv))
                     .unwrap_or_else(crate::battery::LearnedBattery::lipo),
             );
             let curve = estimate_hover_power(train, &prior, opts)?;
@@ -633,6 +638,7 @@ pub fn localise_only<C: PowerCurve>(
         Baseline::FromTraining => {
             let prior = BatterySet::fixed(
                 opts.measured_ocv
+                    .or_else(|| flights.iter().find_map(|f| f.info.measured_ocv))
                     .unwrap_or_else(crate::battery::LearnedBattery::lipo),
             );
             let curve = estimate_hover_power(flights, &prior, opts)?;
@@ -689,6 +695,7 @@ mod tests {
                 cutoff_voltage_v: 12.0,
                 ended_at_cutoff: false,
                 ceiling_height_m: None,
+                measured_ocv: None,
             },
         }
     }

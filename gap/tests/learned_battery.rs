@@ -74,6 +74,7 @@ fn simulate(seed: u64, payload_kg: f64, fade: f64) -> FlightRecord {
             cutoff_voltage_v: CUTOFF_V,
             ended_at_cutoff: true,
             ceiling_height_m: None,
+            measured_ocv: None,
         },
     };
     let mut step = 0u64;
@@ -265,6 +266,25 @@ fn capacity_fade_is_found_when_the_curve_is_given() {
     let v = d.effects[0].parameter.value;
     assert!(v > 0.03 && v < 0.15, "fitted fade {v}");
     assert!(d.after.heldout.endurance_pct < d.baseline.heldout.endurance_pct);
+    // The same curve named by each flight's metadata (`battery_ocv_csv`) instead of the
+    // option: the same battery, the same diagnosis.
+    let mut named = World {
+        train: w.train.clone(),
+        held: w.held.clone(),
+    };
+    for f in named.train.iter_mut().chain(named.held.iter_mut()) {
+        f.info.measured_ocv = Some(measured);
+    }
+    let by_meta = run(&named, None);
+    assert_eq!(
+        by_meta.batteries[0].prior,
+        gap::battery::Chemistry::Measured
+    );
+    assert_eq!(by_meta.verdict, d.verdict);
+    assert_eq!(
+        by_meta.effects[0].parameter.value,
+        d.effects[0].parameter.value
+    );
     // And without it, the same flights are at least never made worse.
     let blind = run(&w, None);
     assert!(blind.after.heldout.endurance_pct <= blind.baseline.heldout.endurance_pct);

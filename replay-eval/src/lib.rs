@@ -205,35 +205,10 @@ pub fn is_tuning_family(f: &Family) -> bool {
         && f.robot == RobotVariant::Paper
 }
 
-/// Families selected by a comma-separated filter: `all`, `tuning`, `heldout`, or patterns
-/// `chemistry/logging/robot` with `*`.
+/// Families selected by a comma-separated filter: `all`, `tuning`, `heldout` (by
+/// [`is_tuning_family`]), or patterns `chemistry/logging/robot` with `*`.
 pub fn select_families(filter: &str) -> Result<Vec<Family>, EvalError> {
-    let all = Family::all();
-    let mut out: Vec<Family> = Vec::new();
-    for part in filter.split(',').map(str::trim).filter(|p| !p.is_empty()) {
-        let hits: Vec<Family> = all
-            .iter()
-            .copied()
-            .filter(|f| match part {
-                "all" => true,
-                "tuning" => is_tuning_family(f),
-                "heldout" | "held-out" => !is_tuning_family(f),
-                p => f.matches(p),
-            })
-            .collect();
-        if hits.is_empty() {
-            return Err(EvalError::NoFamily(part.to_owned()));
-        }
-        for h in hits {
-            if !out.contains(&h) {
-                out.push(h);
-            }
-        }
-    }
-    if out.is_empty() {
-        return Err(EvalError::NoFamily(filter.to_owned()));
-    }
-    Ok(out)
+    Family::select(filter, is_tuning_family).map_err(|e| EvalError::NoFamily(e.0))
 }
 
 /// The rig curve a user fits from the sweep (fifth order).

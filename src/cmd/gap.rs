@@ -37,12 +37,13 @@ pub struct Args {
     #[arg(short, long, value_name = "DIR")]
     output: Option<PathBuf>,
     /// A measured open-circuit curve of one cell (`soc,ocv_v` CSV) that overrides the curve the
-    /// diagnosis learns from the flights (the resistances are still learned).
+    /// diagnosis learns from the flights (the resistances are still learned), for every pack;
+    /// per pack, the metadata key `battery_ocv_csv` does the same.
     #[arg(long, value_name = "CSV")]
     battery_ocv_csv: Option<PathBuf>,
-    /// The packs' chemistry, when known: lipo, lihv, li_ion_nmc or li_ion_nca (only its prior is
-    /// used, held close; unknown, every prior is tried and a lost capacity may pass for a
-    /// chemistry whose knee comes earlier).
+    /// The packs' chemistry, when known: lipo, lihv, li_ion_nmc, li_ion_nca or lifepo4 (only
+    /// its prior is used, held close; unknown, the priors whose full-charge voltage matches the
+    /// flights' resting voltage are tried and the best-fitting kept).
     #[arg(long, value_name = "CHEMISTRY")]
     chemistry: Option<String>,
     /// Most effects combined in the verdict (1 to 8).
@@ -108,6 +109,9 @@ fn read(
             });
             match record_from_log(f) {
                 Ok(r) => out.push(r),
+                // A curve the user gave that does not read is their mistake to fix, not a flight
+                // to leave out.
+                Err(e @ gap::GapError::BatteryCurve { .. }) => return Err(e.into()),
                 Err(e) => skipped.push((f.source.display().to_string(), e.to_string())),
             }
         }
@@ -228,7 +232,9 @@ pub fn run(args: Args) -> Result<()> {
                 .into_iter()
                 .find(|k| k.name() == c.as_str())
                 .with_context(|| {
-                    format!("--chemistry {c}: expected lipo, lihv, li_ion_nmc or li_ion_nca")
+                    format!(
+                        "--chemistry {c}: expected lipo, lihv, li_ion_nmc, li_ion_nca or lifepo4"
+                    )
                 })?,
         );
     }
@@ -432,6 +438,17 @@ pub fn run(args: Args) -> Result<()> {
             b.rmse_cell_v,
             b.note
         );
+        if let (Some(u), Some(lost)) = (b.usable_capacity_ah, b.capacity_lost_fraction()) {
+            println!(
+                "  usable capacity {u:.3} Ah (full to the cut-off) of {:.3} Ah rated: {}",
+                b.rated_capacity_ah,
+                if lost >= 0.0 {
+                    format!("{:.1} % below the rating", lost * 100.0)
+                } else {
+                    format!("{:.1} % above the rating", -lost * 100.0)
+                }
+            );
+        }
     }
     println!();
     println!("gap before, held-out: {}", levels(&d.baseline.heldout));
