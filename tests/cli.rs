@@ -4,7 +4,7 @@
 use serde_json::Value;
 
 mod common;
-use common::{data_path, json, ok, run};
+use common::{data_path, json, nested_plan, ok, refused, replace_line, run};
 
 fn f(v: &Value, path: &str) -> f64 {
     path.split('.')
@@ -23,41 +23,49 @@ fn assert_close(got: f64, want: f64, tol: f64, what: &str) {
     );
 }
 
+/// Asserts each `(path, want, tolerance, what)` of `checks` on the JSON `v`.
+fn assert_fields(v: &Value, checks: &[(&str, f64, f64, &str)]) {
+    for &(path, want, tol, what) in checks {
+        assert_close(f(v, path), want, tol, what);
+    }
+}
+
+/// The paper's optimum, ideal and realistic (battery mass and endurance); `realistic_t_tol` is
+/// the tolerance on the realistic endurance, min.
+fn assert_paper_optimum(v: &Value, realistic_t_tol: f64) {
+    assert_fields(
+        v,
+        &[
+            ("ideal.battery_mass_kg", 0.3529, 0.001, "ideal m_B"),
+            ("ideal.endurance_min", 19.762, 0.01, "ideal t_E"),
+            ("realistic.battery_mass_kg", 0.1690, 0.001, "realistic m_B"),
+            (
+                "realistic.endurance_min",
+                15.278,
+                realistic_t_tol,
+                "realistic t_E",
+            ),
+        ],
+    );
+}
+
 #[test]
 fn paper_reproduces_the_reconstruction_column() {
     let v = json(&["paper", "--json"]);
-    assert_close(f(&v, "ideal.battery_mass_kg"), 0.3529, 0.001, "ideal m_B");
-    assert_close(f(&v, "ideal.endurance_min"), 19.762, 0.01, "ideal t_E");
-    assert_close(
-        f(&v, "realistic.battery_mass_kg"),
-        0.1690,
-        0.001,
-        "realistic m_B",
-    );
-    assert_close(
-        f(&v, "realistic.endurance_min"),
-        15.278,
-        0.01,
-        "realistic t_E",
-    );
-    assert_close(
-        f(&v, "batteries.0.endurance_min"),
-        13.826,
-        0.01,
-        "Battery-A",
-    );
-    assert_close(f(&v, "batteries.1.endurance_min"), 9.854, 0.01, "Battery-B");
-    assert_close(
-        f(&v, "table_i.printed_eq8_min"),
-        103.33,
-        0.01,
-        "Table I printed",
-    );
-    assert_close(
-        f(&v, "table_i.consistent_eq8_min"),
-        101.68,
-        0.01,
-        "Table I consistent",
+    assert_paper_optimum(&v, 0.01);
+    assert_fields(
+        &v,
+        &[
+            ("batteries.0.endurance_min", 13.826, 0.01, "Battery-A"),
+            ("batteries.1.endurance_min", 9.854, 0.01, "Battery-B"),
+            ("table_i.printed_eq8_min", 103.33, 0.01, "Table I printed"),
+            (
+                "table_i.consistent_eq8_min",
+                101.68,
+                0.01,
+                "Table I consistent",
+            ),
+        ],
     );
     assert_eq!(f(&v, "table_i.measured_mean_min"), 102.3);
 }
@@ -103,20 +111,7 @@ fn fit_then_optimise_and_mission_from_the_written_params() {
     ];
     args.extend(platform);
     let o = json(&args);
-    assert_close(f(&o, "ideal.battery_mass_kg"), 0.3529, 0.001, "ideal m_B");
-    assert_close(f(&o, "ideal.endurance_min"), 19.762, 0.01, "ideal t_E");
-    assert_close(
-        f(&o, "realistic.battery_mass_kg"),
-        0.169,
-        0.001,
-        "realistic m_B",
-    );
-    assert_close(
-        f(&o, "realistic.endurance_min"),
-        15.278,
-        0.02,
-        "realistic t_E",
-    );
+    assert_paper_optimum(&o, 0.02);
 
     let mut args = vec![
         "mission",
@@ -394,11 +389,9 @@ fn a_catalogue_with_an_unterminated_quote_is_refused_at_the_quote() {
     )
     .unwrap();
     let o = run(&["optimise", "--paper", "--catalogue", cat.to_str().unwrap()]);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(
-        err.contains("cat.csv, line 3, column 1: a quote opens here and is never closed"),
-        "{err}"
+    refused(
+        &o,
+        "cat.csv, line 3, column 1: a quote opens here and is never closed",
     );
 }
 
@@ -415,24 +408,7 @@ fn a_params_file_whose_total_contradicts_its_per_rotor_limit_is_refused() {
         params.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let text = std::fs::read_to_string(&params).unwrap();
-    let line = text
-        .lines()
-        .position(|l| l.starts_with("total_kg"))
-        .expect("a thrust limit")
-        + 1;
-    let spoiled: String = text
-        .lines()
-        .map(|l| {
-            if l.starts_with("total_kg") {
-                "total_kg = 0.9".to_owned()
-            } else {
-                l.to_owned()
-            }
-        })
-        .collect::<Vec<_>>()
-        .join("\n");
-    std::fs::write(&params, spoiled).unwrap();
+    let line = replace_line(&params, "total_kg", "total_kg = 0.9");
     let o = run(&[
         "estimate",
         "--params",
@@ -446,19 +422,15 @@ fn a_params_file_whose_total_contradicts_its_per_rotor_limit_is_refused() {
         "--energy-density",
         "164",
     ]);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(
-        err.contains(&format!(
-            "line {line}, column 12: thrust_limit.total_kg = 0.9 contradicts"
-        )),
-        "{err}"
+    refused(
+        &o,
+        &format!("line {line}, column 12: thrust_limit.total_kg = 0.9 contradicts"),
     );
 }
 
 #[test]
 fn a_mission_plan_nested_thousands_deep_is_an_error_not_a_crash() {
-    let plan = format!("{}hover 2m{}", "1x(".repeat(19_000), ")".repeat(19_000));
+    let plan = nested_plan(19_000);
     let o = run(&[
         "mission",
         "--paper",
@@ -469,9 +441,7 @@ fn a_mission_plan_nested_thousands_deep_is_an_error_not_a_crash() {
         "--plan",
         &plan,
     ]);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(err.contains("nested more than 32 deep"), "{err}");
+    refused(&o, "nested more than 32 deep");
 }
 
 #[test]
@@ -507,10 +477,8 @@ fn a_bare_mass_implausible_in_kg_suggests_grams() {
         "--energy-density",
         "164",
     ]);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(2), "{err}");
-    assert!(
-        err.contains("hint: --structure-mass 431 is read as 431 kg (a bare number is kg); for grams write --structure-mass 431g"),
-        "{err}"
+    refused(
+        &o,
+        "hint: --structure-mass 431 is read as 431 kg (a bare number is kg); for grams write --structure-mass 431g",
     );
 }

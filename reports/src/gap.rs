@@ -41,11 +41,7 @@ pub struct GapPhaseFigure {
 }
 
 fn finite_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
-    values
-        .filter(|v| v.is_finite())
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-            (lo.min(v), hi.max(v))
-        })
+    render::finite_range(values, (f64::INFINITY, f64::NEG_INFINITY))
 }
 
 /// Runs of finite points (a prediction stops at its cut-off).
@@ -87,9 +83,7 @@ impl Draw for GapVoltageFigure {
             &format!("before: the baseline model; after: with {}", self.verdict),
         )?;
         let shown: Vec<&GapSeries> = self.flights.iter().take(4).collect();
-        let rows = if shown.len() > 2 { 2 } else { 1 };
-        let cols = if shown.len() > 1 { 2 } else { 1 };
-        let panels = body.split_evenly((rows, cols));
+        let panels = render::panels(&body, shown.len());
         for (k, (panel, f)) in panels.iter().zip(&shown).enumerate() {
             let (x0, x1) = finite_range(f.time_s.iter().map(|t| t / 60.0));
             let (y0, y1) = finite_range(
@@ -100,27 +94,13 @@ impl Draw for GapVoltageFigure {
                     .copied(),
             );
             let (y0, y1) = render::padded(y0, y1, 0.05);
-            let mut chart = ChartBuilder::on(panel)
-                .caption(&f.name, text(size::SUBTITLE))
-                .margin(10)
-                .x_label_area_size(48)
-                .y_label_area_size(64)
-                .build_cartesian_2d(
-                    render::axis("x", x0, x1.max(x0 + 1e-6))?,
-                    render::axis("y", y0, y1)?,
-                )?;
-            let (xd, yd) = (tick_decimals(x1 - x0), tick_decimals(y1 - y0));
-            chart
-                .configure_mesh()
-                .x_desc("time (min)")
-                .y_desc("battery voltage (V)")
-                .x_label_formatter(&|v| tick(*v, xd))
-                .y_label_formatter(&|v| tick(*v, yd))
-                .label_style(text(size::TICK))
-                .axis_desc_style(text(size::TICK))
-                .bold_line_style(colour::GREY.mix(0.25))
-                .max_light_lines(0)
-                .draw()?;
+            let mut chart = render::panel_chart(
+                panel,
+                &f.name,
+                (x0, x1.max(x0 + 1e-6)),
+                (y0, y1),
+                ("time (min)", "battery voltage (V)"),
+            )?;
             for (i, run) in runs(&f.time_s, &f.measured_v).into_iter().enumerate() {
                 let s = chart.draw_series(LineSeries::new(run, colour::INK.stroke_width(1)))?;
                 if i == 0 && k == 0 {

@@ -764,6 +764,59 @@ pub(crate) fn titled<DB: DrawingBackend>(
     Ok(root.margin(top, 0, 0, 0))
 }
 
+/// Splits `area` into panels for `n` small charts, at most four: one, two side by side, or a
+/// 2 × 2 grid (a fourth panel stays blank with three charts).
+pub(crate) fn panels<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    n: usize,
+) -> Vec<DrawingArea<DB, Shift>> {
+    let rows = if n > 2 { 2 } else { 1 };
+    let cols = if n > 1 { 2 } else { 1 };
+    area.split_evenly((rows, cols))
+}
+
+/// A chart over two [`Axis`] (see [`panel_chart`]).
+pub(crate) type PanelChart<'a, DB> = ChartContext<'a, DB, Cartesian2d<Axis, Axis>>;
+
+/// A small chart on one of [`panels`]: captioned, over `x` × `y` (each refused by [`axis`]
+/// when it cannot be drawn), with its mesh drawn: the axis descriptions `desc` and tick labels
+/// to the precision of each span.
+pub(crate) fn panel_chart<'a, DB: DrawingBackend>(
+    panel: &'a DrawingArea<DB, Shift>,
+    caption: &str,
+    x: (f64, f64),
+    y: (f64, f64),
+    desc: (&str, &str),
+) -> Result<PanelChart<'a, DB>, DrawingAreaErrorKind<DB::ErrorType>> {
+    let mut chart = ChartBuilder::on(panel)
+        .caption(caption, text(size::SUBTITLE))
+        .margin(10)
+        .x_label_area_size(48)
+        .y_label_area_size(64)
+        .build_cartesian_2d(axis("x", x.0, x.1)?, axis("y", y.0, y.1)?)?;
+    let (xd, yd) = (tick_decimals(x.1 - x.0), tick_decimals(y.1 - y.0));
+    chart
+        .configure_mesh()
+        .x_desc(desc.0)
+        .y_desc(desc.1)
+        .x_label_formatter(&|v| tick(*v, xd))
+        .y_label_formatter(&|v| tick(*v, yd))
+        .label_style(text(size::TICK))
+        .axis_desc_style(text(size::TICK))
+        .bold_line_style(colour::GREY.mix(0.25))
+        .max_light_lines(0)
+        .draw()?;
+    Ok(chart)
+}
+
+/// The smallest and largest finite value of `values`, starting from `from` (`(∞, −∞)` for
+/// none, `(0, 0)` to include zero).
+pub(crate) fn finite_range(values: impl Iterator<Item = f64>, from: (f64, f64)) -> (f64, f64) {
+    values
+        .filter(|v| v.is_finite())
+        .fold(from, |(lo, hi), v| (lo.min(v), hi.max(v)))
+}
+
 /// Legend box style shared by the figures.
 pub(crate) fn legend<'a, 'b, DB, CT>(
     chart: &'b mut ChartContext<'a, DB, CT>,

@@ -8,7 +8,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::ReportError;
-use crate::render::{self, Draw, DrawResult, colour, size, text, tick, tick_decimals};
+use crate::render::{self, Draw, DrawResult, colour};
 
 /// One step's residual of one quantity.
 #[derive(Debug, Clone, PartialEq)]
@@ -59,45 +59,28 @@ impl Draw for RigGapFigure {
             }
         }
         quantities.truncate(4);
-        let rows = if quantities.len() > 2 { 2 } else { 1 };
-        let cols = if quantities.len() > 1 { 2 } else { 1 };
-        let panels = body.split_evenly((rows, cols));
+        let panels = render::panels(&body, quantities.len());
         for (panel, q) in panels.iter().zip(&quantities) {
             let pts: Vec<&ResidualPoint> =
                 self.points.iter().filter(|p| p.quantity == *q).collect();
             let fin = |v: f64| v.is_finite();
-            let (x0, x1) = pts
-                .iter()
-                .map(|p| p.thrust_g)
-                .filter(|v| fin(*v))
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-                    (a.min(v), b.max(v))
-                });
-            let (y0, y1) = pts
-                .iter()
-                .flat_map(|p| [p.before_pct, p.after_pct])
-                .filter(|v| fin(*v))
-                .fold((0.0f64, 0.0f64), |(a, b), v| (a.min(v), b.max(v)));
+            let (x0, x1) = render::finite_range(
+                pts.iter().map(|p| p.thrust_g),
+                (f64::INFINITY, f64::NEG_INFINITY),
+            );
+            let (y0, y1) = render::finite_range(
+                pts.iter().flat_map(|p| [p.before_pct, p.after_pct]),
+                (0.0, 0.0),
+            );
             let (x0, x1) = render::padded(x0, x1, 0.04);
             let (y0, y1) = render::padded(y0, y1, 0.08);
-            let mut chart = ChartBuilder::on(panel)
-                .caption(*q, text(size::SUBTITLE))
-                .margin(10)
-                .x_label_area_size(48)
-                .y_label_area_size(64)
-                .build_cartesian_2d(x0..x1, y0..y1)?;
-            let (xd, yd) = (tick_decimals(x1 - x0), tick_decimals(y1 - y0));
-            chart
-                .configure_mesh()
-                .x_desc("thrust (g)")
-                .y_desc("residual, predicted − measured (%)")
-                .x_label_formatter(&|v| tick(*v, xd))
-                .y_label_formatter(&|v| tick(*v, yd))
-                .label_style(text(size::TICK))
-                .axis_desc_style(text(size::TICK))
-                .bold_line_style(colour::GREY.mix(0.25))
-                .max_light_lines(0)
-                .draw()?;
+            let mut chart = render::panel_chart(
+                panel,
+                q,
+                (x0, x1),
+                (y0, y1),
+                ("thrust (g)", "residual, predicted − measured (%)"),
+            )?;
             chart.draw_series(LineSeries::new(
                 vec![(x0, 0.0), (x1, 0.0)],
                 colour::GREY.stroke_width(1),

@@ -90,14 +90,14 @@ pub enum HostError {
         source: Box<dyn std::error::Error + Send + Sync>,
     },
     /// The rig latched a fault.
-    #[error("rig fault: {cause:?} (value {value}, limit {limit})")]
+    #[error("rig fault: {cause:?}{}", reading(*.value, *.limit))]
     Fault {
         /// Why.
         cause: FaultCause,
-        /// The offending reading.
-        value: f32,
-        /// The limit it crossed.
-        limit: f32,
+        /// The offending reading, when the rig reported one.
+        value: Option<f32>,
+        /// The limit it crossed, when the rig reported one.
+        limit: Option<f32>,
     },
     /// The bench supply failed.
     #[error("bench supply {during}: {source}")]
@@ -175,6 +175,25 @@ pub enum HostError {
     /// An argument or setting is out of range.
     #[error("invalid setting: {0}")]
     Invalid(String),
+    /// A summary could not be encoded as JSON.
+    #[error("encoding {what} as JSON")]
+    Json {
+        /// What was encoded.
+        what: &'static str,
+        /// The encoder's error.
+        #[source]
+        source: serde_json::Error,
+    },
+}
+
+/// ` (value V, limit L)` of a fault, the parts the rig reported.
+fn reading(value: Option<f32>, limit: Option<f32>) -> String {
+    match (value, limit) {
+        (Some(v), Some(l)) => format!(" (value {v}, limit {l})"),
+        (Some(v), None) => format!(" (value {v})"),
+        (None, Some(l)) => format!(" (limit {l})"),
+        (None, None) => String::new(),
+    }
 }
 
 impl HostError {

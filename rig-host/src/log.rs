@@ -66,20 +66,20 @@ pub struct StepRecord {
     pub throttle_us: u16,
     /// Mean thrust, g.
     pub thrust_g: f64,
-    /// Its standard deviation, g.
-    pub thrust_std_g: f64,
+    /// Its standard deviation, g; `None` when the log has none (an empty cell).
+    pub thrust_std_g: Option<f64>,
     /// Mean current, A.
     pub current_a: f64,
-    /// Its standard deviation, A.
-    pub current_std_a: f64,
+    /// Its standard deviation, A; `None` when the log has none (an empty cell).
+    pub current_std_a: Option<f64>,
     /// Mean voltage, V.
     pub voltage_v: f64,
-    /// Its standard deviation, V.
-    pub voltage_std_v: f64,
+    /// Its standard deviation, V; `None` when the log has none (an empty cell).
+    pub voltage_std_v: Option<f64>,
     /// Mean electrical power, W.
     pub power_w: f64,
-    /// Its standard deviation, W.
-    pub power_std_w: f64,
+    /// Its standard deviation, W; `None` when the log has none (an empty cell).
+    pub power_std_w: Option<f64>,
     /// Samples averaged.
     pub samples: usize,
     /// Rig time from the step's first command to steady, s.
@@ -98,17 +98,20 @@ impl StepRecord {
         if let Some(t) = self.target_g {
             s.push_str(&format!(",{t}"));
         }
+        // a missing spread is an empty cell, as the importer reads one
+        let spread =
+            |v: Option<f64>, digits: usize| v.map_or(String::new(), |v| format!("{v:.digits$}"));
         s.push_str(&format!(
-            ",{},{:.4},{:.4},{:.5},{:.5},{:.4},{:.4},{:.5},{:.5},{},{:.3},{:.3},{},{}",
+            ",{},{:.4},{},{:.5},{},{:.4},{},{:.5},{},{},{:.3},{:.3},{},{}",
             self.throttle_us,
             self.thrust_g,
-            self.thrust_std_g,
+            spread(self.thrust_std_g, 4),
             self.current_a,
-            self.current_std_a,
+            spread(self.current_std_a, 5),
             self.voltage_v,
-            self.voltage_std_v,
+            spread(self.voltage_std_v, 4),
             self.power_w,
-            self.power_std_w,
+            spread(self.power_std_w, 5),
             self.samples,
             self.settle_s,
             self.time_s,
@@ -127,10 +130,15 @@ impl StepRecord {
         let get = |name: &str| header.iter().position(|h| *h == name).map(|i| cells[i]);
         let num = |name: &str| get(name).and_then(|c| c.parse::<f64>().ok());
         // a spread as the importer reads one (`import::Table::uncertainty_column`): an empty
-        // cell is no spread (NaN here), a value must be a finite number ≥ 0
+        // cell is no spread (`Some(None)`), a value must be a finite number ≥ 0 (else the row
+        // is refused: `None`)
         let spread = |name: &str| match get(name)? {
-            "" => Some(f64::NAN),
-            c => c.parse::<f64>().ok().filter(|v| v.is_finite() && *v >= 0.0),
+            "" => Some(None),
+            c => c
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite() && *v >= 0.0)
+                .map(Some),
         };
         Some(Self {
             step: get("step")?.parse().ok()?,
@@ -331,38 +339,7 @@ impl SweepLog {
         }
         // Keep whole lines only: a step row is complete once its newline is on disk.
         let keep = text.rfind('\n').map_or(0, |i| i + 1);
-        let body = &text[..keep];
-        let mut lines = body.lines().skip_while(|l| l.starts_with('#'));
-        let head = lines
-            .next()
-            .ok_or_else(|| refuse("no column header".into()))?;
-        if head != columns {
-            return Err(refuse(format!("columns {head:?}, expected {columns:?}")));
-        }
-        let head_record =
-            csv_record(head).ok_or_else(|| refuse(format!("column header {head:?}")))?;
-        let names: Vec<&str> = head_record.iter().collect();
-        let mut state = ResumeState::default();
-        for (i, l) in lines.enumerate() {
-            if let Some(c) = l.strip_prefix('#') {
-                state.complete = c.trim() == "end: complete";
-                continue;
-            }
-            if l.trim().is_empty() {
-                continue;
-            }
-            let row = StepRecord::parse(&names, l)
-                .ok_or_else(|| refuse(format!("row {} is not a step: {l:?}", i + 1)))?;
-            if row.step != state.rows.len() {
-                return Err(refuse(format!(
-                    "step {} follows {} steps",
-                    row.step,
-                    state.rows.len()
-                )));
-            }
-            state.complete = false;
-            state.rows.push(row);
-        }
+        let state = parse_steps(&text[..keep], Some(columns), refuse)?;
         file.set_len(keep as u64)
             .map_err(|e| HostError::io(path, e))?;
         file.seek(SeekFrom::End(0))
@@ -465,10 +442,26 @@ pub fn read_steps(path: &Path) -> Result<ResumeState, HostError> {
     };
     let text = std::fs::read_to_string(path).map_err(|e| HostError::io(path, e))?;
     let keep = text.rfind('\n').map_or(0, |i| i + 1);
-    let mut lines = text[..keep].lines().skip_while(|l| l.starts_with('#'));
+    parse_steps(&text[..keep], None, refuse)
+}
+
+/// The step rows of a log's whole lines (the `#` header lines skipped) and whether it ends
+/// with `# end: complete`. With `columns`, the log must be the sweep's own: its column header
+/// is `columns` and its steps are numbered 0, 1, 2, … without a gap.
+fn parse_steps(
+    body: &str,
+    columns: Option<&str>,
+    refuse: impl Fn(String) -> HostError,
+) -> Result<ResumeState, HostError> {
+    let mut lines = body.lines().skip_while(|l| l.starts_with('#'));
     let head = lines
         .next()
         .ok_or_else(|| refuse("no column header".into()))?;
+    if let Some(columns) = columns
+        && head != columns
+    {
+        return Err(refuse(format!("columns {head:?}, expected {columns:?}")));
+    }
     let head_record = csv_record(head).ok_or_else(|| refuse(format!("column header {head:?}")))?;
     let names: Vec<&str> = head_record.iter().collect();
     let mut state = ResumeState::default();
@@ -482,6 +475,13 @@ pub fn read_steps(path: &Path) -> Result<ResumeState, HostError> {
         }
         let row = StepRecord::parse(&names, l)
             .ok_or_else(|| refuse(format!("row {} is not a step: {l:?}", i + 1)))?;
+        if columns.is_some() && row.step != state.rows.len() {
+            return Err(refuse(format!(
+                "step {} follows {} steps",
+                row.step,
+                state.rows.len()
+            )));
+        }
         state.complete = false;
         state.rows.push(row);
     }
@@ -555,13 +555,13 @@ mod tests {
             target_g: Some(10.0 * (step + 1) as f64),
             throttle_us: 1100 + step as u16,
             thrust_g: 10.0 * (step + 1) as f64,
-            thrust_std_g: 0.1,
+            thrust_std_g: Some(0.1),
             current_a: 1.0,
-            current_std_a: 0.01,
+            current_std_a: Some(0.01),
             voltage_v: 12.5,
-            voltage_std_v: 0.01,
+            voltage_std_v: Some(0.01),
             power_w: 12.5,
-            power_std_w: 0.1,
+            power_std_w: Some(0.1),
             samples: 40,
             settle_s: 0.5,
             time_s: 1.0,

@@ -111,18 +111,13 @@ where
         let st = self.rig.status().map_err(rig_err("status"))?;
         let cause = st.faults.iter().next().unwrap_or(FaultCause::HostTimeout);
         let only_timeout = st.faults.iter().all(|c| c == FaultCause::HostTimeout);
-        let report = rig_protocol::FaultReport {
-            time_us: st.time_us,
-            cause: if only_timeout {
-                FaultCause::HostTimeout
-            } else {
-                st.faults
-                    .iter()
-                    .find(|&c| c != FaultCause::HostTimeout)
-                    .unwrap_or(cause)
-            },
-            value: f32::NAN,
-            limit: f32::NAN,
+        let cause = if only_timeout {
+            FaultCause::HostTimeout
+        } else {
+            st.faults
+                .iter()
+                .find(|&c| c != FaultCause::HostTimeout)
+                .unwrap_or(cause)
         };
         // Reports of this fault still queued are the same event.
         while self
@@ -131,7 +126,8 @@ where
             .map_err(rig_err("fault check"))?
             .is_some()
         {}
-        self.handle_fault(report).map(|_| ())
+        // the status names the cause only, with no reading
+        self.handle_fault(cause, None).map(|_| ())
     }
 
     /// Looks for a latched fault; recovers from a host timeout (re-arm) when allowed.
@@ -145,12 +141,16 @@ where
         let Some(f) = self.rig.take_fault().map_err(rig_err("fault check"))? else {
             return Ok(false);
         };
-        self.handle_fault(f)
+        self.handle_fault(f.cause, Some((f.value, f.limit)))
     }
 
-    fn handle_fault(&mut self, f: rig_protocol::FaultReport) -> Result<bool, HostError> {
-        if f.cause == FaultCause::HostTimeout && self.recoveries < self.cfg.host_timeout_recoveries
-        {
+    /// A latched fault, with the reading and limit of its report when there is one.
+    fn handle_fault(
+        &mut self,
+        cause: FaultCause,
+        reading: Option<(f32, f32)>,
+    ) -> Result<bool, HostError> {
+        if cause == FaultCause::HostTimeout && self.recoveries < self.cfg.host_timeout_recoveries {
             self.recoveries += 1;
             let msg = format!(
                 "host timeout latched by the rig (the host was late); re-armed ({} of {})",
@@ -162,9 +162,9 @@ where
             return Ok(true);
         }
         Err(HostError::Fault {
-            cause: f.cause,
-            value: f.value,
-            limit: f.limit,
+            cause,
+            value: reading.map(|r| r.0),
+            limit: reading.map(|r| r.1),
         })
     }
 
@@ -281,13 +281,13 @@ where
             target_g: at.target_g,
             throttle_us: a.throttle_us,
             thrust_g: w.thrust.mean,
-            thrust_std_g: w.thrust.std,
+            thrust_std_g: Some(w.thrust.std),
             current_a: w.current.mean,
-            current_std_a: w.current.std,
+            current_std_a: Some(w.current.std),
             voltage_v: w.voltage.mean,
-            voltage_std_v: w.voltage.std,
+            voltage_std_v: Some(w.voltage.std),
             power_w: w.power.mean,
-            power_std_w: w.power.std,
+            power_std_w: Some(w.power.std),
             samples: w.samples.len(),
             settle_s,
             time_s: w.samples.last().map_or(0.0, |s| s.time_us as f64 * 1e-6),

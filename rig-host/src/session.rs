@@ -400,13 +400,7 @@ pub fn regenerate(config: &SessionConfig) -> Result<SessionSummary, HostError> {
         .map(str::to_owned)
         .to_vec(),
     };
-    let json = serde_json::to_string_pretty(&summary)
-        .map_err(|e| HostError::Invalid(format!("summary: {e}")))?;
-    write_atomic(&p(files::SUMMARY_JSON), format!("{json}\n").as_bytes())?;
-    write_atomic(
-        &p(files::SUMMARY_TXT),
-        summary_text(&summary, &nominal_rows, &limit_rows).as_bytes(),
-    )?;
+    write_summaries(dir, &summary, &nominal_rows, &limit_rows)?;
     Ok(summary)
 }
 
@@ -560,14 +554,30 @@ where
         fit,
         files: done,
     };
-    let json = serde_json::to_string_pretty(&summary)
-        .map_err(|e| HostError::Invalid(format!("summary: {e}")))?;
-    write_atomic(&p(files::SUMMARY_JSON), format!("{json}\n").as_bytes())?;
-    write_atomic(
-        &p(files::SUMMARY_TXT),
-        summary_text(&summary, &nominal_rows, &limit_rows).as_bytes(),
-    )?;
+    write_summaries(dir, &summary, &nominal_rows, &limit_rows)?;
     Ok(summary)
+}
+
+/// Writes `summary.json` and `summary.txt` into the session folder.
+fn write_summaries(
+    dir: &Path,
+    summary: &SessionSummary,
+    nominal_rows: &[StepRecord],
+    limit_rows: &[StepRecord],
+) -> Result<(), HostError> {
+    let json = serde_json::to_string_pretty(summary).map_err(|source| HostError::Json {
+        what: "the session summary",
+        source,
+    })?;
+    write_atomic(
+        &dir.join(files::SUMMARY_JSON),
+        format!("{json}\n").as_bytes(),
+    )?;
+    write_atomic(
+        &dir.join(files::SUMMARY_TXT),
+        summary_text(summary, nominal_rows, limit_rows).as_bytes(),
+    )?;
+    Ok(())
 }
 
 /// `n` and a noun, in the singular for one (`1 step`, `3 steps`).
@@ -632,12 +642,10 @@ pub fn summary_text(s: &SessionSummary, nominal: &[StepRecord], limit: &[StepRec
         s.limit.max_thrust_g
     );
     for r in limit.iter().rev().take(4).rev() {
-        // an empty spread in the log (a step without one) reads as NaN
-        let spread = if r.thrust_std_g.is_finite() {
-            format!(" ± {:.2}", r.thrust_std_g)
-        } else {
-            String::new()
-        };
+        // a step logged without a spread (an empty cell) has none to show
+        let spread = r
+            .thrust_std_g
+            .map_or(String::new(), |s| format!(" ± {s:.2}"));
         let _ = writeln!(
             t,
             "  {} us: {:.2}{spread} g at {:.3} V",
@@ -662,10 +670,12 @@ pub fn summary_text(s: &SessionSummary, nominal: &[StepRecord], limit: &[StepRec
         f.thrust_limit_uncertainty_g,
         f.thrust_limit_total_kg,
     ) {
+        let at = f
+            .limit_voltage_v
+            .map_or(String::new(), |v| format!(" at {v:.2} V"));
         let _ = writeln!(
             t,
-            "thrust limit: {l:.1} ± {u:.1} g per rotor at {:.2} V → m_L = {kg:.3} kg",
-            f.limit_voltage_v.unwrap_or(f64::NAN)
+            "thrust limit: {l:.1} ± {u:.1} g per rotor{at} → m_L = {kg:.3} kg"
         );
     }
     for w in &f.warnings {

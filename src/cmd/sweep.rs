@@ -168,13 +168,13 @@ impl SweepObserver for Progress {
             SweepEvent::Step(r) => {
                 self.bar.set_position(r.step as u64 + 1);
                 self.line(&format!(
-                    "{} step {:>2}: {}throttle {:>4} us  thrust {:>7.2} ± {:.2} g  {:>6.3} A  {:>6.3} V  {:>7.3} W  {} samples  settle {:.2} s  {}{}",
+                    "{} step {:>2}: {}throttle {:>4} us  thrust {:>7.2}{} g  {:>6.3} A  {:>6.3} V  {:>7.3} W  {} samples  settle {:.2} s  {}{}",
                     self.label,
                     r.step,
                     r.target_g.map_or(String::new(), |t| format!("target {t:>3} g  ")),
                     r.throttle_us,
                     r.thrust_g,
-                    r.thrust_std_g,
+                    r.thrust_std_g.map_or(String::new(), |s| format!(" ± {s:.2}")),
                     r.current_a,
                     r.voltage_v,
                     r.power_w,

@@ -94,3 +94,39 @@ pub fn assert_self_contained(html: &str) {
         );
     }
 }
+
+/// Asserts that a run was refused as bad input: exit code 2 and `needle` in its stderr.
+/// Returns the stderr.
+pub fn refused(out: &Output, needle: &str) -> String {
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains(needle), "expected {needle:?} in {err}");
+    err
+}
+
+/// A mission plan nested `depth` deep: `1x(1x(…hover 2m…))`.
+pub fn nested_plan(depth: usize) -> String {
+    format!("{}hover 2m{}", "1x(".repeat(depth), ")".repeat(depth))
+}
+
+/// Replaces each line of a text file that starts with `key` (indentation aside) by `line`.
+/// Panics when no line does; returns the 1-based number of the first one replaced.
+pub fn replace_line(path: &Path, key: &str, line: &str) -> usize {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut first = None;
+    let new: Vec<&str> = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if l.trim_start().starts_with(key) {
+                first.get_or_insert(i + 1);
+                line
+            } else {
+                l
+            }
+        })
+        .collect();
+    let first = first.unwrap_or_else(|| panic!("{key} not in {}", path.display()));
+    std::fs::write(path, new.join("\n") + "\n").unwrap();
+    first
+}
