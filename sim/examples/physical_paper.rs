@@ -20,44 +20,13 @@
 use sim::physics::{Motor, Propeller, Propulsion, Supply};
 use sim::presets;
 
+#[path = "../tests/support/poly.rs"]
+mod support_poly;
+use support_poly::{poly, polyfit};
+
 const M_S_KG: f64 = 0.431;
 const P_A_W: f64 = 2.44;
 const E_D_WH_PER_KG: f64 = 164.0;
-
-/// Least-squares polynomial in `T/100` by the normal equations.
-#[allow(clippy::needless_range_loop)]
-fn polyfit(xs: &[f64], ys: &[f64], degree: usize) -> Vec<f64> {
-    let n = degree + 1;
-    let mut a = vec![vec![0.0; n + 1]; n];
-    for (&x, &y) in xs.iter().zip(ys) {
-        let x = x / 100.0;
-        for i in 0..n {
-            for j in 0..n {
-                a[i][j] += x.powi((i + j) as i32);
-            }
-            a[i][n] += y * x.powi(i as i32);
-        }
-    }
-    for c in 0..n {
-        let p = (c..n)
-            .max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs()))
-            .unwrap_or(c);
-        a.swap(c, p);
-        for r in 0..n {
-            if r != c {
-                let f = a[r][c] / a[c][c];
-                for k in c..=n {
-                    a[r][k] -= f * a[c][k];
-                }
-            }
-        }
-    }
-    (0..n).map(|i| a[i][n] / a[i][i]).collect()
-}
-
-fn poly(c: &[f64], t_g: f64) -> f64 {
-    c.iter().rev().fold(0.0, |acc, k| acc * (t_g / 100.0) + k)
-}
 
 fn fig3_w(t_g: f64) -> f64 {
     0.157_434_234 * t_g + 0.341_190_317 * (t_g / 100.0).powf(5.348_657_28)

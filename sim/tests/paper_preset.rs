@@ -7,6 +7,10 @@ use rig_protocol::{Client, ClientConfig, Rig, Sample};
 use sim::peripherals::SimClock;
 use sim::{ClientClockExt, SimLink, SimRig, presets};
 
+#[path = "support/poly.rs"]
+mod support_poly;
+use support_poly::{poly, polyfit};
+
 type Host = Client<SimLink, SimClock>;
 
 const M_S_KG: f64 = 0.431;
@@ -62,41 +66,6 @@ fn point(
             .map(|s| f64::from(s.current_a) * f64::from(s.voltage_v)),
     );
     (thrust, power)
-}
-
-/// Least-squares polynomial of `degree` in x = T/100 (normal equations, partial pivoting).
-#[allow(clippy::needless_range_loop)]
-fn polyfit(xs: &[f64], ys: &[f64], degree: usize) -> Vec<f64> {
-    let n = degree + 1;
-    let mut a = vec![vec![0.0; n + 1]; n];
-    for (&x, &y) in xs.iter().zip(ys) {
-        let x = x / 100.0;
-        for i in 0..n {
-            for j in 0..n {
-                a[i][j] += x.powi((i + j) as i32);
-            }
-            a[i][n] += y * x.powi(i as i32);
-        }
-    }
-    for c in 0..n {
-        let p = (c..n)
-            .max_by(|&i, &j| a[i][c].abs().total_cmp(&a[j][c].abs()))
-            .unwrap();
-        a.swap(c, p);
-        for r in 0..n {
-            if r != c {
-                let f = a[r][c] / a[c][c];
-                for k in c..=n {
-                    a[r][k] -= f * a[c][k];
-                }
-            }
-        }
-    }
-    (0..n).map(|i| a[i][n] / a[i][i]).collect()
-}
-
-fn poly(c: &[f64], t_g: f64) -> f64 {
-    c.iter().rev().fold(0.0, |acc, k| acc * (t_g / 100.0) + k)
 }
 
 fn endurance_min(c: &[f64], m_b: f64) -> f64 {
