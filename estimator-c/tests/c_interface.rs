@@ -5,10 +5,8 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use estimator::online::{
-    BatteryModel, FlightPhase, OnlineConfig, OnlineEstimator, Sample, Vehicle,
-};
-use estimator::{MissionOptions, Params, PolyCurve, Segment};
+use estimator::online::{BatteryModel, FlightPhase, OnlineConfig, OnlineEstimator, Sample};
+use estimator::{MissionOptions, Params, Segment};
 use hoverbench_online::{HbOnlineEstimate, HbOnlineState, c_header};
 
 fn manifest_dir() -> PathBuf {
@@ -31,31 +29,18 @@ fn checked_in_header_is_the_generated_one() {
     );
 }
 
+#[path = "../../estimator/tests/support/fixture.rs"]
+mod fixture;
+
+/// The estimator's test platform with a LiPo pack of 12 + 6 mΩ per cell, τ 20 s.
 fn params() -> Params {
-    let curve = PolyCurve::new(
-        &[22.36, 29.12, 6.76],
-        130.0,
-        130.0,
-        (0.0, 260.0),
-        Some(12.0),
-    )
-    .unwrap();
     let mut battery = BatteryModel::lipo(3, 2.1).unwrap();
     battery.series_resistance_cell_ohm = 0.012;
     battery.rc_resistance_cell_ohm = 0.006;
     battery.rc_time_constant_s = 20.0;
     Params {
-        rotor_count: 4,
-        curve,
-        thrust_limit: None,
         battery: Some(battery),
-        vehicle: Some(Vehicle {
-            structure_mass_kg: 0.431,
-            battery_mass_kg: 0.144,
-            payload_mass_kg: 0.0,
-            avionics_power_w: 2.44,
-            payload_power_w: 0.0,
-        }),
+        ..fixture::params()
     }
 }
 

@@ -5,33 +5,14 @@
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
-use estimator::online::{
-    BatteryModel, FlightPhase, OnlineConfig, OnlineEstimator, Sample, Vehicle,
-};
-use estimator::{MissionOptions, Params, PolyCurve, Segment};
+use estimator::online::{BatteryModel, FlightPhase, OnlineConfig, OnlineEstimator, Sample};
+use estimator::{MissionOptions, Segment};
+
+#[path = "../tests/support/fixture.rs"]
+mod fixture;
 
 fn estimator(config: &OnlineConfig, plan: bool) -> OnlineEstimator {
-    let curve = PolyCurve::new(
-        &[22.36, 29.12, 6.76],
-        130.0,
-        130.0,
-        (0.0, 260.0),
-        Some(12.0),
-    )
-    .expect("a valid curve");
-    let params = Params {
-        rotor_count: 4,
-        curve,
-        thrust_limit: None,
-        battery: None,
-        vehicle: Some(Vehicle {
-            structure_mass_kg: 0.431,
-            battery_mass_kg: 0.144,
-            payload_mass_kg: 0.0,
-            avionics_power_w: 2.44,
-            payload_power_w: 0.0,
-        }),
-    };
+    let params = fixture::params();
     let battery = BatteryModel::lipo(3, 2.1).expect("a valid pack");
     let mut e = OnlineEstimator::new(&params, &battery, config).expect("a valid estimator");
     if plan {

@@ -356,8 +356,8 @@ pub struct Provenance {
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum ParamsFileError {
-    /// The file could not be read or written.
-    #[error("{path}: {source}")]
+    /// The file could not be read.
+    #[error("cannot read {}", path.display())]
     Io {
         /// The file.
         path: PathBuf,
@@ -396,7 +396,7 @@ pub enum ParamsFileError {
         found: i64,
     },
     /// Values that parse but make no sense.
-    #[error("{}{source}", path_prefix(path.as_deref()))]
+    #[error("{}values the estimator cannot use", path_prefix(path.as_deref()))]
     Invalid {
         /// The file.
         path: Option<PathBuf>,

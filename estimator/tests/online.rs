@@ -5,9 +5,9 @@
 
 use estimator::online::{
     BatteryModel, Chemistry, Estimate, FlightPhase, OCV_KNOTS, OnlineConfig, OnlineEstimator,
-    Sample, Vehicle,
+    Sample,
 };
-use estimator::{MissionOptions, Params, PolyCurve, Segment};
+use estimator::{MissionOptions, Segment};
 
 /// Open-circuit voltage of one cell of the synthetic pack: a sloped plateau, a knee below 15 %
 /// and a shoulder near full.
@@ -39,30 +39,9 @@ const NOMINAL: TruePack = TruePack {
     ocv_offset_cell_v: 0.0,
 };
 
-fn params() -> Params {
-    // p(T) = 0.12 T + 0.0004 T² per rotor, in the scaled basis t = (T − 130)/130.
-    let curve = PolyCurve::new(
-        &[22.36, 29.12, 6.76],
-        130.0,
-        130.0,
-        (0.0, 260.0),
-        Some(12.0),
-    )
-    .unwrap();
-    Params {
-        rotor_count: 4,
-        curve,
-        thrust_limit: None,
-        battery: None,
-        vehicle: Some(Vehicle {
-            structure_mass_kg: 0.431,
-            battery_mass_kg: 0.144,
-            payload_mass_kg: 0.0,
-            avionics_power_w: 2.44,
-            payload_power_w: 0.0,
-        }),
-    }
-}
+#[path = "support/fixture.rs"]
+mod fixture;
+use fixture::params;
 
 /// The battery model the file holds: the nominal pack, its curve sampled at the knots (as the
 /// gap diagnosis would learn it).

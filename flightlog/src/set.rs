@@ -16,6 +16,19 @@ pub struct Skipped {
     pub reason: FlightLogError,
 }
 
+impl Skipped {
+    /// Why, with the causes, on one line; without the file name the reason starts with (that
+    /// is [`Skipped::path`], shown beside it).
+    pub fn why(&self) -> String {
+        let file = self.path.display().to_string();
+        let reason = crate::summary::error_chain(&self.reason);
+        reason
+            .strip_prefix(&format!("{file}: "))
+            .or_else(|| reason.strip_prefix(&format!("{file}, ")))
+            .map_or_else(|| reason.clone(), str::to_owned)
+    }
+}
+
 /// The flights of a folder, the files that could not be read, and the folder's defaults.
 #[derive(Debug)]
 pub struct FlightSet {
@@ -273,9 +286,10 @@ fn read_one(
         if plan.is_file() {
             match crazyflie::read_plan(&plan) {
                 Ok(waypoints) => flight.planned_waypoints_m = Some(waypoints),
-                Err(e) => flight
-                    .warnings
-                    .push(format!("planned trajectory not read: {e}")),
+                Err(e) => flight.warnings.push(format!(
+                    "planned trajectory not read: {}",
+                    crate::summary::error_chain(&e)
+                )),
             }
         } else if crazyflie_platform {
             flight

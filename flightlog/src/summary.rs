@@ -3,7 +3,6 @@
 //! source and warnings; per skipped file its reason. Computed here; the CLI only formats.
 
 use std::collections::BTreeMap;
-use std::error::Error as _;
 
 use serde::Serialize;
 
@@ -101,8 +100,8 @@ pub fn format_name(format: LogFormat) -> &'static str {
     }
 }
 
-/// An error with its causes, `: `-joined.
-pub fn error_chain(e: &crate::FlightLogError) -> String {
+/// An error with its causes, `: `-joined (for a one-line reason: a skipped file, a warning).
+pub fn error_chain(e: &dyn std::error::Error) -> String {
     let mut text = e.to_string();
     let mut cause = e.source();
     while let Some(c) = cause {
@@ -236,14 +235,9 @@ impl SetSummary {
             skipped: set
                 .skipped
                 .iter()
-                .map(|s| {
-                    let file = s.path.display().to_string();
-                    let reason = error_chain(&s.reason);
-                    let reason = reason
-                        .strip_prefix(&format!("{file}: "))
-                        .or_else(|| reason.strip_prefix(&format!("{file}, ")))
-                        .map_or_else(|| reason.clone(), str::to_owned);
-                    SkippedSummary { file, reason }
+                .map(|s| SkippedSummary {
+                    file: s.path.display().to_string(),
+                    reason: s.why(),
                 })
                 .collect(),
         }

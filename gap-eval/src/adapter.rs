@@ -8,6 +8,7 @@
 
 use estimator::PolyCurve;
 use flightlog::Flight;
+use flightlog::summary::error_chain;
 use gap::diagnose::{DiagnoseOptions, diagnose};
 use gap::flight::FlightRecord;
 use gap::logs::record_from_log;
@@ -42,7 +43,7 @@ pub fn diagnose_blind(
 ) -> Result<Outcome, EvalError> {
     let convert = |fs: &[Flight]| -> Result<Vec<FlightRecord>, EvalError> {
         fs.iter()
-            .map(|f| record_from_log(f).map_err(|e| EvalError::Diagnosis(e.to_string())))
+            .map(|f| record_from_log(f).map_err(|e| EvalError::Diagnosis(error_chain(&e))))
             .collect()
     };
     let tr = convert(train)?;
@@ -55,7 +56,7 @@ pub fn diagnose_blind(
         &he,
         &DiagnoseOptions::default(),
     )
-    .map_err(|e| EvalError::Diagnosis(e.to_string()))?;
+    .map_err(|e| EvalError::Diagnosis(error_chain(&e)))?;
     Ok(Outcome {
         verdict: d.verdict.iter().map(|e| e.name().to_owned()).collect(),
         unexplained: d.unexplained,

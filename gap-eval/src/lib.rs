@@ -35,6 +35,7 @@ use flight_sim::{
     Chemistry, EffectKind, Family, Logging, RigSweep, RobotVariant, SimFlight, Truth, draw_effect,
     generate,
 };
+use flightlog::summary::error_chain;
 use flightlog::{Flight, FlightMeta, LogFormat};
 use serde::Serialize;
 
@@ -89,7 +90,7 @@ pub fn read_back(flights: &[SimFlight]) -> Result<Vec<Flight>, EvalError> {
             let toml_path = format!("{}.toml", f.name);
             let err = |e: flightlog::FlightLogError| EvalError::ReadBack {
                 name: f.name.clone(),
-                message: e.to_string(),
+                message: error_chain(&e),
             };
             let mut flight = Flight::parse(f.csv.as_bytes(), Path::new(&csv_path), LogFormat::Csv)
                 .map_err(err)?;

@@ -1,68 +1,11 @@
 //! The truth and the diagnosis stay apart: the dependency graph, and what crosses between them
 //! (flight-log files only).
 
-use std::collections::{BTreeMap, BTreeSet};
-use std::process::Command;
-
 use flight_sim::{Family, Logging, Withheld, generate};
-use serde_json::Value;
 
-/// Every workspace package a workspace package reaches through its dependencies of every kind
-/// (normal, dev, build), from `cargo metadata --no-deps` (no network, no resolution: the
-/// workspace's own crates are the only way to reach another workspace crate).
-fn reach() -> BTreeMap<String, BTreeSet<String>> {
-    let out = Command::new(env!("CARGO"))
-        .args([
-            "metadata",
-            "--format-version",
-            "1",
-            "--no-deps",
-            "--offline",
-        ])
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .expect("cargo metadata runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let v: Value = serde_json::from_slice(&out.stdout).unwrap();
-    let direct: BTreeMap<String, Vec<String>> = v["packages"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|p| {
-            (
-                p["name"].as_str().unwrap().to_owned(),
-                p["dependencies"]
-                    .as_array()
-                    .unwrap()
-                    .iter()
-                    .map(|d| d["name"].as_str().unwrap().to_owned())
-                    .collect(),
-            )
-        })
-        .collect();
-    assert!(
-        direct.len() > 10,
-        "the workspace's packages: {:?}",
-        direct.keys()
-    );
-    direct
-        .keys()
-        .map(|k| {
-            let mut seen = BTreeSet::new();
-            let mut stack = direct[k].clone();
-            while let Some(d) = stack.pop() {
-                if seen.insert(d.clone()) {
-                    stack.extend(direct.get(&d).cloned().unwrap_or_default());
-                }
-            }
-            (k.clone(), seen)
-        })
-        .collect()
-}
+#[path = "../../test-support/workspace_deps.rs"]
+mod workspace_deps;
+use workspace_deps::reach;
 
 #[test]
 fn truth_and_diagnosis_do_not_depend_on_each_other() {

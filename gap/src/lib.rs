@@ -74,10 +74,10 @@ pub mod summary;
 #[non_exhaustive]
 pub enum GapError {
     /// Fitting the rig curve failed.
-    #[error("fitting the rig curve: {0}")]
+    #[error("fitting the rig curve")]
     Fit(#[from] fit::FitError),
     /// The estimator refused the curve.
-    #[error("{0}")]
+    #[error(transparent)]
     Estimate(#[from] estimator::EstimateError),
     /// A flight lacks metadata the diagnosis needs.
     #[error("flight {flight}: no {missing} in its sidecar NAME.toml or the folder's flights.toml")]

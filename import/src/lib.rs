@@ -36,7 +36,7 @@ use sha2::{Digest, Sha256};
 #[non_exhaustive]
 pub enum ImportError {
     /// The file could not be read.
-    #[error("{source_name}: {error}")]
+    #[error("cannot read {source_name}")]
     Io {
         /// The file.
         source_name: String,

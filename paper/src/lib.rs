@@ -150,10 +150,10 @@ pub fn reconstructed_sweep(step_g: f64) -> (Vec<f64>, Vec<f64>) {
 #[derive(Debug, thiserror::Error)]
 pub enum PaperError {
     /// The polynomial fit failed.
-    #[error("fitting the reconstructed curve: {0}")]
+    #[error("fitting the reconstructed curve")]
     Fit(#[from] fit::FitError),
     /// The estimator refused an input.
-    #[error("estimating: {0}")]
+    #[error("estimating")]
     Estimate(#[from] estimator::EstimateError),
 }
 

@@ -227,7 +227,7 @@ pub fn rig_curve(thrust_g: &[f64], power_w: &[f64], volts: f64) -> Result<PolyCu
 fn read_back(f: &SimFlight, label_v: f64) -> Result<Flight, EvalError> {
     let err = |e: flightlog::FlightLogError| EvalError::ReadBack {
         name: f.name.clone(),
-        message: e.to_string(),
+        message: flightlog::summary::error_chain(&e),
     };
     let mut flight = Flight::parse(
         f.csv.as_bytes(),
@@ -343,7 +343,7 @@ pub fn prepare_scenario(family: &Family, seed: u64) -> Result<PreparedScenario, 
         )
         .map_err(|e| EvalError::Battery {
             pack: id.clone(),
-            message: e.to_string(),
+            message: flightlog::summary::error_chain(&e),
         })?;
         packs.push(LearnedPack {
             pack: id.clone(),

@@ -41,7 +41,9 @@ pub struct FileOnline {
 impl FileOnline {
     /// From a parameter file with a `[battery]` section; the reason when it cannot run.
     pub fn from_file(file: &ParamsFile) -> Result<Self, String> {
-        let params = file.to_params().map_err(|e| e.to_string())?;
+        let params = file
+            .to_params()
+            .map_err(|e| flightlog::summary::error_chain(&e))?;
         let battery = params.battery.ok_or_else(|| {
             "the parameter file has no [battery] section (store one with `hoverbench battery learn`)"
                 .to_owned()

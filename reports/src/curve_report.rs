@@ -9,7 +9,7 @@ use estimator::file::ParamsFile;
 use import::Table;
 
 use crate::session::{nominal_sweep, parameters_provenance, params_path};
-use crate::{LimitMarker, ReportError, ReportFiles, ReportInput, Sweep};
+use crate::{LimitMarker, ReportError, ReportFiles, ReportInput, ReportModel, Sweep};
 
 /// Writes Fig. 3 and `report.html` for `input` (a session folder or a `params.toml`) into
 /// `output`. The measured steps come from `sweep`, else the session's `sweep.csv`, else the
@@ -53,8 +53,8 @@ pub fn write_curve_report(
     provenance.push(("report".into(), written_by.to_owned()));
     let input = ReportInput {
         title: format!("hoverbench report: {}", input.display()),
-        // No platform: NaN marks it as not given (the HTML says so); no figure uses it.
-        model: params.model(f64::NAN, f64::NAN),
+        // No platform: the HTML says so, and only Fig. 3 is drawn.
+        model: ReportModel::curve_only(&params),
         payload: Payload::default(),
         sweep,
         thrust_limit: params.thrust_limit.map(LimitMarker::from),

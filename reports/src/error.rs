@@ -54,7 +54,7 @@ pub enum ReportError {
         what: String,
     },
     /// The estimator refused an input while preparing a figure.
-    #[error("{context}: {source}")]
+    #[error("{context}")]
     Estimate {
         /// What was being computed.
         context: String,
@@ -68,10 +68,10 @@ pub enum ReportError {
     #[error(transparent)]
     Params(#[from] estimator::file::ParamsFileError),
     /// The mission plan does not parse.
-    #[error("mission plan: {0}")]
+    #[error("mission plan")]
     Plan(#[from] estimator::plan::PlanError),
     /// A fit needed by a figure failed.
-    #[error("{context}: {source}")]
+    #[error("{context}")]
     Fit {
         /// What was being fitted.
         context: String,
@@ -84,8 +84,8 @@ pub enum ReportError {
     /// An output file could not be written (nothing half-written is left).
     #[error(transparent)]
     Write(#[from] outfile::WriteError),
-    /// A file or folder could not be written.
-    #[error("{path}: {source}")]
+    /// A file could not be read.
+    #[error("cannot read {}", path.display())]
     Io {
         /// The file or folder.
         path: PathBuf,

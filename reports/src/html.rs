@@ -153,18 +153,11 @@ pub(crate) fn page(input: &ReportInput, figures: &[Figure], rendered: &[Rendered
 }
 
 fn model_section(input: &ReportInput) -> String {
-    let m = &input.model;
-    let c = &m.curve;
+    let c = input.model.curve();
     let (lo, hi) = c.valid_range_g();
     let mut t = Table::new(&["quantity", "value"]);
-    t.row(&["rotors".to_owned(), m.platform.rotor_count.to_string()]);
-    // A report of a parameter file alone has no platform (NaN): say so rather than print NaN.
-    if m.platform.structure_mass_kg.is_nan() || m.platform.avionics_power_w.is_nan() {
-        t.row(&[
-            "platform m_S, p_A".to_owned(),
-            "not given (--structure-mass, --avionics-power)".to_owned(),
-        ]);
-    } else {
+    t.row(&["rotors".to_owned(), input.model.rotor_count().to_string()]);
+    if let Some(m) = input.model.with_platform() {
         t.row(&[
             "structure mass m_S".to_owned(),
             format!("{} kg", num(m.platform.structure_mass_kg, 3)),
@@ -180,6 +173,12 @@ fn model_section(input: &ReportInput) -> String {
                 num(input.payload.mass_kg, 3),
                 num(input.payload.power_w, 3)
             ),
+        ]);
+    } else {
+        // A report of a parameter file alone has no platform: say so.
+        t.row(&[
+            "platform m_S, p_A".to_owned(),
+            "not given (--structure-mass, --avionics-power)".to_owned(),
         ]);
     }
     t.row(&[
@@ -209,7 +208,7 @@ fn model_section(input: &ReportInput) -> String {
     ]);
     t.row(&[
         "thrust limit m_L".to_owned(),
-        match (m.thrust_limit_kg, &input.thrust_limit) {
+        match (input.model.thrust_limit_kg(), &input.thrust_limit) {
             (Some(l), Some(mk)) => format!(
                 "{} kg ({}{} g per rotor{}{})",
                 num(l, 3),

@@ -60,8 +60,8 @@ pub use font::FONT_FAMILY;
 pub use paper_figures::{FIG6_PAYLOAD_POWERS_W, paper_figures};
 pub use payload::{FlightComparison, MeasuredFlight, PayloadFigure, PayloadSeries};
 pub use report::{
-    Comparison, HTML_FILE, MissionInput, PayloadStudy, ReportFiles, ReportInput, Sweep, figures,
-    is_report_file, write_report,
+    Comparison, HTML_FILE, MissionInput, PayloadStudy, ReportFiles, ReportInput, ReportModel,
+    Sweep, figures, is_report_file, write_report,
 };
 pub use thrust_curve::{LimitMarker, MeasuredStep, ResidualSummary, ThrustCurveFigure};
 pub use timeline::{TimelineFigure, TimelineSegment};

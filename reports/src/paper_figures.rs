@@ -42,7 +42,7 @@ impl ReportInput {
         };
         Ok(Self {
             title: "Energy Management for Indoor Hovering Robots, reproduced".to_owned(),
-            model,
+            model: crate::ReportModel::Platform(model),
             payload: Payload::default(),
             sweep: Some(Sweep {
                 source: format!(

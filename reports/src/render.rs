@@ -788,11 +788,32 @@ pub(crate) fn panel_chart<'a, DB: DrawingBackend>(
     y: (f64, f64),
     desc: (&str, &str),
 ) -> Result<PanelChart<'a, DB>, DrawingAreaErrorKind<DB::ErrorType>> {
-    let mut chart = ChartBuilder::on(panel)
-        .caption(caption, text(size::SUBTITLE))
-        .margin(10)
+    chart(panel, Some(caption), x, y, desc)
+}
+
+/// A chart over `x` × `y` (each refused by [`axis`] when it cannot be drawn) with its mesh
+/// drawn: the axis descriptions `desc` and tick labels to the precision of each span. With a
+/// caption it is a small panel (see [`panel_chart`]); without, the one chart of a figure, with
+/// wider margins and larger axis descriptions.
+pub(crate) fn chart<'a, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, Shift>,
+    caption: Option<&str>,
+    x: (f64, f64),
+    y: (f64, f64),
+    desc: (&str, &str),
+) -> Result<PanelChart<'a, DB>, DrawingAreaErrorKind<DB::ErrorType>> {
+    let mut builder = ChartBuilder::on(area);
+    let (margin, y_labels, desc_size) = match caption {
+        Some(c) => {
+            builder.caption(c, text(size::SUBTITLE));
+            (10, 64, size::TICK)
+        }
+        None => (16, 70, size::AXIS),
+    };
+    let mut chart = builder
+        .margin(margin)
         .x_label_area_size(48)
-        .y_label_area_size(64)
+        .y_label_area_size(y_labels)
         .build_cartesian_2d(axis("x", x.0, x.1)?, axis("y", y.0, y.1)?)?;
     let (xd, yd) = (tick_decimals(x.1 - x.0), tick_decimals(y.1 - y.0));
     chart
@@ -802,7 +823,7 @@ pub(crate) fn panel_chart<'a, DB: DrawingBackend>(
         .x_label_formatter(&|v| tick(*v, xd))
         .y_label_formatter(&|v| tick(*v, yd))
         .label_style(text(size::TICK))
-        .axis_desc_style(text(size::TICK))
+        .axis_desc_style(text(desc_size))
         .bold_line_style(colour::GREY.mix(0.25))
         .max_light_lines(0)
         .draw()?;

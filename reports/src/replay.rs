@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use crate::render::{self, Draw, DrawResult, colour, size, text, tick, tick_decimals};
+use crate::render::{self, Draw, DrawResult, colour};
 
 /// One method's predictions over a flight.
 #[derive(Debug, Clone, PartialEq)]
@@ -90,23 +90,13 @@ impl Draw for ReplayFlightFigure {
         // Keep the truth readable when a method predicts far too long.
         let cap = finite_max(self.true_remaining_s.iter().copied()) / 60.0 * 2.0;
         let y1 = y1.min(cap.max(1e-3)) * 1.05;
-        let mut chart = ChartBuilder::on(&body)
-            .margin(16)
-            .x_label_area_size(48)
-            .y_label_area_size(70)
-            .build_cartesian_2d(render::axis("x", 0.0, x1)?, render::axis("y", 0.0, y1)?)?;
-        let (xd, yd) = (tick_decimals(x1), tick_decimals(y1));
-        chart
-            .configure_mesh()
-            .x_desc("time since take-off (min)")
-            .y_desc("remaining time (min)")
-            .x_label_formatter(&|v| tick(*v, xd))
-            .y_label_formatter(&|v| tick(*v, yd))
-            .label_style(text(size::TICK))
-            .axis_desc_style(text(size::AXIS))
-            .bold_line_style(colour::GREY.mix(0.25))
-            .max_light_lines(0)
-            .draw()?;
+        let mut chart = render::chart(
+            &body,
+            None,
+            (0.0, x1),
+            (0.0, y1),
+            ("time since take-off (min)", "remaining time (min)"),
+        )?;
         let clip = |v: f64| v.min(y1 * 60.0);
         if let Some(first) = self.methods.first() {
             // The sigma band of the first method, as a filled polygon per run.
@@ -191,23 +181,16 @@ impl Draw for ReplayErrorFigure {
             ),
         )?;
         let y1 = finite_max(self.methods.iter().flat_map(|m| m.1.iter().copied())).max(1.0) * 1.1;
-        let mut chart = ChartBuilder::on(&body)
-            .margin(16)
-            .x_label_area_size(48)
-            .y_label_area_size(70)
-            .build_cartesian_2d(render::axis("x", 0.0, 100.0)?, render::axis("y", 0.0, y1)?)?;
-        let yd = tick_decimals(y1);
-        chart
-            .configure_mesh()
-            .x_desc("checkpoint (% of the flight)")
-            .y_desc("median |error| (% of duration)")
-            .x_label_formatter(&|v| tick(*v, 0))
-            .y_label_formatter(&|v| tick(*v, yd))
-            .label_style(text(size::TICK))
-            .axis_desc_style(text(size::AXIS))
-            .bold_line_style(colour::GREY.mix(0.25))
-            .max_light_lines(0)
-            .draw()?;
+        let mut chart = render::chart(
+            &body,
+            None,
+            (0.0, 100.0),
+            (0.0, y1),
+            (
+                "checkpoint (% of the flight)",
+                "median |error| (% of duration)",
+            ),
+        )?;
         for (k, (name, errs)) in self.methods.iter().enumerate() {
             let c = if k == 1 {
                 colour::RED

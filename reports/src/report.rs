@@ -2,7 +2,7 @@
 
 use std::path::{Path, PathBuf};
 
-use estimator::{MissionOptions, Model, Payload, PolyCurve, Segment};
+use estimator::{MissionOptions, Model, Params, Payload, PolyCurve, Segment};
 
 use crate::figure::RenderedFigure;
 use crate::{
@@ -88,13 +88,83 @@ pub struct Comparison {
     pub reference_source: String,
 }
 
+/// What a report knows of the vehicle: the curve alone, or the curve with a platform.
+#[derive(Debug, Clone)]
+pub enum ReportModel {
+    /// A parameter file alone (no `--structure-mass`, `--avionics-power`): the curve, the rotor
+    /// count and the thrust limit. Only Fig. 3 can be drawn.
+    CurveOnly {
+        /// Per-rotor thrust → power curve.
+        curve: PolyCurve,
+        /// Rotors sharing the take-off mass.
+        rotor_count: u8,
+        /// `m_L`, kg, when measured.
+        thrust_limit_kg: Option<f64>,
+    },
+    /// The curve with a platform and the thrust limit: every figure can be drawn.
+    Platform(Model<PolyCurve>),
+}
+
+impl ReportModel {
+    /// The curve of a parameter file, without a platform.
+    pub fn curve_only(params: &Params) -> Self {
+        Self::CurveOnly {
+            curve: params.curve,
+            rotor_count: params.rotor_count,
+            thrust_limit_kg: params.thrust_limit_kg(),
+        }
+    }
+
+    /// The per-rotor thrust → power curve.
+    pub fn curve(&self) -> &PolyCurve {
+        match self {
+            Self::CurveOnly { curve, .. } => curve,
+            Self::Platform(m) => &m.curve,
+        }
+    }
+
+    /// Rotors sharing the take-off mass.
+    pub fn rotor_count(&self) -> u8 {
+        match self {
+            Self::CurveOnly { rotor_count, .. } => *rotor_count,
+            Self::Platform(m) => m.platform.rotor_count,
+        }
+    }
+
+    /// `m_L`: total thrust limit over all rotors, kg, when known.
+    pub fn thrust_limit_kg(&self) -> Option<f64> {
+        match self {
+            Self::CurveOnly {
+                thrust_limit_kg, ..
+            } => *thrust_limit_kg,
+            Self::Platform(m) => m.thrust_limit_kg,
+        }
+    }
+
+    /// The model with its platform, when one was given.
+    pub fn with_platform(&self) -> Option<&Model<PolyCurve>> {
+        match self {
+            Self::CurveOnly { .. } => None,
+            Self::Platform(m) => Some(m),
+        }
+    }
+
+    /// The model with its platform, or the error of `figure`, which needs one.
+    fn platform_for(&self, figure: &'static str) -> Result<&Model<PolyCurve>, ReportError> {
+        self.with_platform().ok_or_else(|| ReportError::NoData {
+            figure,
+            what: "no platform given (--structure-mass, --avionics-power)".to_owned(),
+        })
+    }
+}
+
 /// Everything a report can show. Each figure is drawn when its inputs are present.
 #[derive(Debug, Clone)]
 pub struct ReportInput {
     /// Report title.
     pub title: String,
-    /// The model: fitted curve, platform and thrust limit.
-    pub model: Model<PolyCurve>,
+    /// The model: fitted curve, thrust limit and, when given, the platform.
+    pub model: ReportModel,
     /// Payload for Fig. 4, Fig. 5 and the mission.
     pub payload: Payload,
     /// Measured steps for Fig. 3 (the curve alone is drawn without them).
@@ -147,7 +217,7 @@ pub fn figures(input: &ReportInput) -> Result<Vec<Figure>, ReportError> {
     let model = &input.model;
     let mut out = Vec::new();
     out.push(Figure::from(ThrustCurveFigure {
-        curve: model.curve,
+        curve: *model.curve(),
         measured: input
             .sweep
             .as_ref()
@@ -161,16 +231,18 @@ pub fn figures(input: &ReportInput) -> Result<Vec<Figure>, ReportError> {
             .map_or_else(|| "measured".to_owned(), |s| s.label.clone()),
     }));
     if let Some(e_d) = input.energy_density_wh_per_kg {
-        out.push(BatteryMassFigure::from_model(model, e_d, &input.payload)?.into());
+        let m = model.platform_for("battery mass")?;
+        out.push(BatteryMassFigure::from_model(m, e_d, &input.payload)?.into());
     }
     if !input.catalogue.is_empty() {
-        out.push(CatalogueFigure::rank(model, &input.payload, &input.catalogue)?.into());
+        let m = model.platform_for("catalogue")?;
+        out.push(CatalogueFigure::rank(m, &input.payload, &input.catalogue)?.into());
     }
     if let Some(study) = &input.payload_study {
         if !study.batteries.is_empty() && !study.payload_powers_w.is_empty() {
             out.push(
                 PayloadFigure::from_model(
-                    model,
+                    model.platform_for("payload")?,
                     &study.batteries,
                     &study.payload_powers_w,
                     &input.flights,
@@ -181,6 +253,7 @@ pub fn figures(input: &ReportInput) -> Result<Vec<Figure>, ReportError> {
     }
     if let Some(m) = &input.mission {
         let (summary, outcomes) = model
+            .platform_for("mission timeline")?
             .evaluate_mission_vec(&m.battery.battery, &input.payload, &m.segments, &m.options)
             .map_err(ReportError::estimate(format!(
                 "mission {:?} with {}",

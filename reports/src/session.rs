@@ -354,7 +354,7 @@ pub fn write_session_report(r: &SessionReport) -> Result<ReportFiles, ReportErro
 
     let input = ReportInput {
         title: format!("hoverbench report: {}", r.input.display()),
-        model,
+        model: crate::ReportModel::Platform(model),
         payload: r.payload,
         sweep,
         thrust_limit,

@@ -92,7 +92,12 @@ fn an_impossible_mission_is_an_error_and_nothing_is_written() {
     }
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("never");
-    let e = reports::write_report(&input, &out).unwrap_err().to_string();
+    let e = reports::write_report(&input, &out).unwrap_err();
+    // The estimator's reason is the error's cause.
+    let e = std::iter::successors(Some(&e as &dyn std::error::Error), |c| c.source())
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join(": ");
     assert!(e.contains("exceeds the thrust limit"), "{e}");
     assert!(!out.exists());
 }

@@ -54,7 +54,7 @@ pub enum SupplyLoss {
 #[derive(Debug, Error)]
 pub enum HostError {
     /// A serial port could not be opened or listed.
-    #[error("serial port {path}: {source}")]
+    #[error("{}", port_label(path))]
     Port {
         /// The port path (empty when listing).
         path: String,
@@ -100,7 +100,7 @@ pub enum HostError {
         limit: Option<f32>,
     },
     /// The bench supply failed.
-    #[error("bench supply {during}: {source}")]
+    #[error("bench supply {during}")]
     Supply {
         /// What the host was doing.
         during: &'static str,
@@ -123,7 +123,7 @@ pub enum HostError {
     #[error("interrupted")]
     Interrupted,
     /// Reading or writing a file failed.
-    #[error("{path}: {source}")]
+    #[error("I/O error on {}", path.display())]
     Io {
         /// The file.
         path: PathBuf,
@@ -140,7 +140,7 @@ pub enum HostError {
         reason: String,
     },
     /// A sweep log could not be read back for the fit.
-    #[error("reading {path}: {source}")]
+    #[error("reading the sweep log back")]
     Import {
         /// The log.
         path: PathBuf,
@@ -149,7 +149,7 @@ pub enum HostError {
         source: Box<import::ImportError>,
     },
     /// The fit failed.
-    #[error("{what}: {source}")]
+    #[error("{what}")]
     Fit {
         /// What was fitted.
         what: String,
@@ -184,6 +184,15 @@ pub enum HostError {
         #[source]
         source: serde_json::Error,
     },
+}
+
+/// What a port error is about: the port, or the listing (no path).
+fn port_label(path: &str) -> String {
+    if path.is_empty() {
+        "listing the serial ports".to_owned()
+    } else {
+        format!("serial port {path}")
+    }
 }
 
 /// ` (value V, limit L)` of a fault, the parts the rig reported.

@@ -150,7 +150,12 @@ where
             })?;
         }
         Err(e) => {
-            let _ = log.finish(&format!("stopped: {e}"));
+            // The log's last line names the error and its causes.
+            let why: Vec<String> =
+                std::iter::successors(Some(e as &dyn std::error::Error), |c| c.source())
+                    .map(ToString::to_string)
+                    .collect();
+            let _ = log.finish(&format!("stopped: {}", why.join(": ")));
         }
     }
     r

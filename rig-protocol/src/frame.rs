@@ -44,7 +44,7 @@ pub enum FrameError {
         max: usize,
     },
     /// The COBS stuffing is invalid (bytes lost or flipped).
-    #[error("bad COBS stuffing: {0}")]
+    #[error("bad COBS stuffing")]
     Cobs(#[from] CobsError),
     /// Fewer bytes than the smallest frame.
     #[error("truncated frame: {len} bytes, at least {min} needed")]
@@ -63,7 +63,7 @@ pub enum FrameError {
         computed: u32,
     },
     /// The CRC matched but the payload is not a valid message.
-    #[error("invalid message: {0}")]
+    #[error("invalid message")]
     Message(#[from] MessageError),
 }
 

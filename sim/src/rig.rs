@@ -37,13 +37,13 @@ pub type SimFirmware = Firmware<
 #[derive(Debug, Error)]
 pub enum SimError {
     /// HX711 initialisation.
-    #[error("HX711 init: {0}")]
+    #[error("HX711 init")]
     Hx711(#[from] Hx711Error),
     /// INA226 initialisation.
-    #[error("INA226 init: {0}")]
+    #[error("INA226 init")]
     Ina226(#[from] Ina226Error),
     /// ESC initialisation.
-    #[error("ESC init: {0}")]
+    #[error("ESC init")]
     Esc(#[from] EscError),
 }
 

@@ -5,8 +5,37 @@
 use std::path::PathBuf;
 
 use anyhow::{Context, Result, bail};
+use clap::builder::PossibleValue;
 use estimator::file::ParamsFile;
 use flightlog::FlightSet;
+use flightlog::summary::error_chain;
+use gap::battery::Chemistry;
+
+/// A chemistry prior as `--chemistry` takes it: the values are the names of
+/// [`Chemistry::PRIORS`], so help and errors list exactly what is accepted.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ChemistryArg(pub Chemistry);
+
+/// Every prior, in [`Chemistry::PRIORS`]' order.
+const CHEMISTRY_ARGS: [ChemistryArg; Chemistry::PRIORS.len()] = {
+    let mut out = [ChemistryArg(Chemistry::PRIORS[0]); Chemistry::PRIORS.len()];
+    let mut i = 1;
+    while i < out.len() {
+        out[i] = ChemistryArg(Chemistry::PRIORS[i]);
+        i += 1;
+    }
+    out
+};
+
+impl clap::ValueEnum for ChemistryArg {
+    fn value_variants<'a>() -> &'a [Self] {
+        &CHEMISTRY_ARGS
+    }
+
+    fn to_possible_value(&self) -> Option<PossibleValue> {
+        Some(PossibleValue::new(self.0.name()))
+    }
+}
 
 /// The pack model of a parameter file.
 #[derive(Debug, clap::Args)]
@@ -34,9 +63,9 @@ struct LearnArgs {
     /// The pack type to learn when the flights hold several (`battery_id`, else `NS E Wh`).
     #[arg(long, value_name = "TYPE")]
     battery_type: Option<String>,
-    /// Pin the chemistry prior: lipo, lihv, li_ion_nmc, li_ion_nca.
-    #[arg(long)]
-    chemistry: Option<String>,
+    /// Pin the chemistry prior.
+    #[arg(long, value_enum)]
+    chemistry: Option<ChemistryArg>,
     /// Print the section as JSON instead of a summary.
     #[arg(long)]
     json: bool,
@@ -53,28 +82,17 @@ fn learn(a: LearnArgs) -> Result<()> {
     let mut file = ParamsFile::load(&a.params)?;
     let params = file
         .to_params()
-        .with_context(|| format!("{}", a.params.display()))?;
-    let chemistry = match a.chemistry.as_deref() {
-        None => None,
-        Some(name) => Some(
-            gap::battery::Chemistry::PRIORS
-                .iter()
-                .copied()
-                .find(|c| c.name() == name)
-                .with_context(|| {
-                    format!("unknown chemistry {name:?}: use lipo, lihv, li_ion_nmc or li_ion_nca")
-                })?,
-        ),
-    };
+        .with_context(|| format!("{} cannot drive the estimator", a.params.display()))?;
+    let chemistry = a.chemistry.map(|c| c.0);
     let set = FlightSet::read_paths(&a.flights)?;
     for s in &set.skipped {
-        eprintln!("skipped {}: {}", s.path.display(), s.reason);
+        eprintln!("skipped {}: {}", s.path.display(), s.why());
     }
     let mut records = Vec::new();
     for f in &set.flights {
         match gap::logs::record_from_log(f) {
             Ok(r) => records.push(r),
-            Err(e) => eprintln!("skipped {}: {e}", f.name),
+            Err(e) => eprintln!("skipped {}: {}", f.name, error_chain(&e)),
         }
     }
     if records.is_empty() {

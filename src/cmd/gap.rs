@@ -7,6 +7,7 @@ use anyhow::{Context, Result, bail};
 use estimator::file::ParamsFile;
 use flightlog::FlightSet;
 use flightlog::PhaseSource;
+use flightlog::summary::error_chain;
 use gap::diagnose::{DiagnoseOptions, LevelErrors};
 use gap::flight::FlightRecord;
 use gap::logs::{
@@ -41,11 +42,11 @@ pub struct Args {
     /// per pack, the metadata key `battery_ocv_csv` does the same.
     #[arg(long, value_name = "CSV")]
     battery_ocv_csv: Option<PathBuf>,
-    /// The packs' chemistry, when known: lipo, lihv, li_ion_nmc, li_ion_nca or lifepo4 (only
-    /// its prior is used, held close; unknown, the priors whose full-charge voltage matches the
-    /// flights' resting voltage are tried and the best-fitting kept).
-    #[arg(long, value_name = "CHEMISTRY")]
-    chemistry: Option<String>,
+    /// The packs' chemistry, when known (only its prior is used, held close; unknown, the
+    /// priors whose full-charge voltage matches the flights' resting voltage are tried and the
+    /// best-fitting kept).
+    #[arg(long, value_enum, value_name = "CHEMISTRY")]
+    chemistry: Option<super::battery::ChemistryArg>,
     /// Most effects combined in the verdict (1 to 8).
     #[arg(long, default_value_t = 2)]
     max_effects: usize,
@@ -84,7 +85,7 @@ fn read(
             FlightSet::read_files(dir, std::slice::from_ref(p))?
         };
         for s in &set.skipped {
-            skipped.push((s.path.display().to_string(), s.reason.to_string()));
+            skipped.push((s.path.display().to_string(), s.why()));
         }
         for f in &set.flights {
             let (kind, how) = match &f.phase_source {
@@ -112,7 +113,7 @@ fn read(
                 // A curve the user gave that does not read is their mistake to fix, not a flight
                 // to leave out.
                 Err(e @ gap::GapError::BatteryCurve { .. }) => return Err(e.into()),
-                Err(e) => skipped.push((f.source.display().to_string(), e.to_string())),
+                Err(e) => skipped.push((f.source.display().to_string(), error_chain(&e))),
             }
         }
     }
@@ -223,21 +224,10 @@ pub fn run(args: Args) -> Result<()> {
             std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
         opts.measured_ocv = Some(
             gap::battery::LearnedBattery::from_ocv_csv(&text)
-                .with_context(|| format!("{}", p.display()))?,
+                .with_context(|| format!("--battery-ocv-csv {}", p.display()))?,
         );
     }
-    if let Some(c) = &args.chemistry {
-        opts.chemistry = Some(
-            gap::battery::Chemistry::PRIORS
-                .into_iter()
-                .find(|k| k.name() == c.as_str())
-                .with_context(|| {
-                    format!(
-                        "--chemistry {c}: expected lipo, lihv, li_ion_nmc, li_ion_nca or lifepo4"
-                    )
-                })?,
-        );
-    }
+    opts.chemistry = args.chemistry.map(|c| c.0);
     let params = match &args.params {
         Some(p) => Some(
             ParamsFile::load(p)?

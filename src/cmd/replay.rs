@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use estimator::file::ParamsFile;
 use flightlog::FlightSet;
+use flightlog::summary::error_chain;
 use replay::{FlightReplay, Replay, ReplayConfig, SkippedFlight};
 use reports::replay::{ReplayErrorFigure, ReplayFlightFigure, ReplayMethodSeries};
 
@@ -36,7 +37,7 @@ pub fn run(args: Args) -> Result<()> {
     let file = ParamsFile::load(&args.params)?;
     let params = file
         .to_params()
-        .with_context(|| format!("{}", args.params.display()))?;
+        .with_context(|| format!("{} cannot drive the estimator", args.params.display()))?;
     let set = FlightSet::read_paths(&args.flights)?;
     let unread: Vec<SkippedFlight> = set
         .skipped
@@ -46,7 +47,7 @@ pub fn run(args: Args) -> Result<()> {
                 || s.path.display().to_string(),
                 |n| n.to_string_lossy().into_owned(),
             ),
-            reason: s.reason.to_string(),
+            reason: error_chain(&s.reason),
         })
         .collect();
     let online = replay::online_from_file(&file);

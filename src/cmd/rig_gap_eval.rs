@@ -1,6 +1,7 @@
 //! `hoverbench rig-gap-eval`: the stand gap diagnosis' blind study on the stand truth simulator.
 
 use anyhow::Result;
+use flightlog::summary::error_chain;
 use import::stand::{StandLog, StandOptions};
 use indicatif::{ProgressBar, ProgressStyle};
 use rig_gap::diagnose::{Options, diagnose};
@@ -29,12 +30,12 @@ pub struct Args {
 fn outcome(s: &Scenario) -> Result<Outcome, String> {
     let read = |csv: &str, name: &str| -> Result<_, String> {
         let log = StandLog::parse(csv.as_bytes().to_vec(), name, &StandOptions::default())
-            .map_err(|e| e.to_string())?;
-        runs_of_log(&log).map_err(|e| e.to_string())
+            .map_err(|e| error_chain(&e))?;
+        runs_of_log(&log).map_err(|e| error_chain(&e))
     };
     let train = read(&s.train_csv, "train.csv")?;
     let held = read(&s.heldout_csv, "heldout.csv")?;
-    let d = diagnose(&train, &held, &Options::default()).map_err(|e| e.to_string())?;
+    let d = diagnose(&train, &held, &Options::default()).map_err(|e| error_chain(&e))?;
     let (before_pct, after_pct) = d.headline_pct().unwrap_or((f64::NAN, f64::NAN));
     Ok(Outcome {
         verdict: d.verdict.clone(),

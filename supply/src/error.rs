@@ -69,7 +69,7 @@ pub enum ReplyError {
 #[non_exhaustive]
 pub enum SupplyError {
     /// The serial port could not be opened.
-    #[error("cannot open serial port {path}: {source}")]
+    #[error("cannot open serial port {path}")]
     Open {
         /// The port path.
         path: String,
@@ -78,7 +78,7 @@ pub enum SupplyError {
         source: serialport::Error,
     },
     /// Writing or reading the transport failed (not a timeout: the port is gone or broken).
-    #[error("transport error on {command:?}: {source}")]
+    #[error("transport error on {command:?}")]
     Io {
         /// The command being sent or answered.
         command: String,
