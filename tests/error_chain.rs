@@ -198,3 +198,149 @@ fn every_chemistry_prior_is_accepted_and_listed() {
         }
     }
 }
+
+/// The text from `open` (an opening bracket at `text[0]`) to its matching close, both included;
+/// brackets inside string literals do not count.
+fn balanced(text: &str, open: char, close: char) -> &str {
+    let (mut depth, mut in_str, mut escaped) = (0usize, false, false);
+    for (i, c) in text.char_indices() {
+        if in_str {
+            match (escaped, c) {
+                (true, _) => escaped = false,
+                (false, '\\') => escaped = true,
+                (false, '"') => in_str = false,
+                _ => {}
+            }
+        } else if c == '"' {
+            in_str = true;
+        } else if c == open {
+            depth += 1;
+        } else if c == close {
+            depth -= 1;
+            if depth == 0 {
+                return &text[..=i];
+            }
+        }
+    }
+    text
+}
+
+/// What opens an error message attribute (spelt in two parts so that this file does not hold
+/// one outside its scan's test).
+const ERROR_ATTR: &str = concat!("#[err", "or(");
+
+/// The offending variants of one source file: a `#[error(...)]` whose format arguments name a
+/// field that is also the variant's source (`#[source]`, `#[from]` or named `source`).
+fn cause_in_display(text: &str) -> Vec<String> {
+    // Comments may hold brackets; the attribute and fields are what matter.
+    let code: String = text
+        .lines()
+        .map(|l| match l.trim_start().starts_with("//") {
+            true => "",
+            false => l,
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    let mut found = Vec::new();
+    for (at, _) in code.match_indices(ERROR_ATTR) {
+        let attr = balanced(&code[at + 7..], '(', ')');
+        if attr.contains("transparent") {
+            continue;
+        }
+        let rest = &code[at + 7 + attr.len()..];
+        let Some(start) = rest.find(['{', '(', ',']) else {
+            continue;
+        };
+        let name = rest[..start]
+            .trim()
+            .trim_start_matches(']')
+            .trim()
+            .to_owned();
+        let fields = match rest.as_bytes()[start] {
+            b'{' => balanced(&rest[start..], '{', '}'),
+            b'(' => balanced(&rest[start..], '(', ')'),
+            _ => continue,
+        };
+        let inner = &fields[1..fields.len() - 1];
+        let mut sources = Vec::new();
+        for (k, field) in inner.split(',').enumerate() {
+            let field = field.trim();
+            let marked = field.contains("#[source]") || field.contains("#[from]");
+            let named = field
+                .rsplit(']')
+                .next()
+                .and_then(|f| f.split(':').next())
+                .map(str::trim)
+                .unwrap_or_default();
+            if rest.as_bytes()[start] == b'(' {
+                if marked {
+                    sources.push(k.to_string());
+                }
+            } else if marked || named == "source" {
+                sources.push(named.to_owned());
+            }
+        }
+        for s in sources {
+            // `{source}`, `{0:?}`; as an argument `.source`, `.0` (not `{:.0}`), `, source`.
+            let named = !s.starts_with(|c: char| c.is_ascii_digit());
+            let uses = [format!("{{{s}}}"), format!("{{{s}:")]
+                .iter()
+                .any(|p| attr.contains(p.as_str()))
+                || attr.contains(&format!(", {s})"))
+                || attr.contains(&format!(", {s}."))
+                || (named && attr.contains(&format!(".{s}")))
+                || attr.contains(&format!("self.{s}"))
+                || attr.contains(&format!("*.{s}"));
+            if uses {
+                let line = code[..at].lines().count() + 1;
+                found.push(format!(
+                    "line {line}: {name} shows its source {s} in {attr}"
+                ));
+            }
+        }
+    }
+    found
+}
+
+#[test]
+fn no_error_variant_shows_its_source_in_its_message() {
+    // A known offender is found, so the scan below means something.
+    let bad = r#"enum E {
+        ATTR"{path}: {source}")]
+        Io { path: String, source: std::io::Error },
+        ATTR"fit: {0}")]
+        Fit(#[from] F),
+        ATTR"{what}")]
+        Fine { what: String, #[source] error: X },
+        ATTR"{:.0} g", .1)]
+        Neither(#[from] F, f64),
+    }"#
+    .replace("ATTR", ERROR_ATTR);
+    let found = cause_in_display(&bad);
+    assert_eq!(found.len(), 2, "{found:?}");
+
+    let mut stack = vec![common::root().to_path_buf()];
+    let mut files = 0;
+    let mut offenders = Vec::new();
+    while let Some(dir) = stack.pop() {
+        for entry in std::fs::read_dir(&dir).unwrap() {
+            let path = entry.unwrap().path();
+            let name = path.file_name().unwrap().to_string_lossy().into_owned();
+            if path.is_dir() {
+                if !name.starts_with('.') && name != "target" {
+                    stack.push(path);
+                }
+            } else if name.ends_with(".rs") {
+                let text = std::fs::read_to_string(&path).unwrap();
+                if text.contains(ERROR_ATTR) {
+                    files += 1;
+                    for f in cause_in_display(&text) {
+                        offenders.push(format!("{}, {f}", path.display()));
+                    }
+                }
+            }
+        }
+    }
+    assert!(files > 10, "only {files} files with error enums found");
+    assert!(offenders.is_empty(), "{}", offenders.join("\n"));
+}

@@ -196,9 +196,7 @@ pub fn run(args: Args) -> Result<()> {
         .with_context(|| format!("connecting to the rig on {rig_path}"))?;
     let mut supply = SupplyMonitor::start(open_supply(&supply_path, args.dialect)?)
         .with_context(|| format!("connecting to the {} supply on {supply_path}", args.dialect))?;
-    let identity = rig
-        .identify()
-        .map_err(|e| anyhow::anyhow!("identify: {e}"))?;
+    let identity = rig.identify().context("identifying the rig")?;
     progress.line(&format!(
         "rig serial 0x{:08x} (firmware {}.{}.{}), supply {}",
         identity.serial_number,

@@ -316,9 +316,7 @@ pub fn run(args: Args) -> Result<()> {
     let stop = interrupt_flag();
     let mut rig = rig_host::link::connect_rig(&args.rig, args.speed)
         .with_context(|| format!("connecting to the rig on {}", args.rig))?;
-    let identity = rig
-        .identify()
-        .map_err(|e| anyhow::anyhow!("identify: {e}"))?;
+    let identity = rig.identify().context("identifying the rig")?;
     let mut supply =
         SupplyMonitor::start(open_supply(&args.supply, args.dialect)?).with_context(|| {
             format!(
@@ -341,7 +339,7 @@ pub fn run(args: Args) -> Result<()> {
             .1,
         )
     };
-    let status = rig.status().map_err(|e| anyhow::anyhow!("status: {e}"))?;
+    let status = rig.status().context("reading the rig's status")?;
     let header = sweep_header(
         &config,
         &identity,
