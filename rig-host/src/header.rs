@@ -54,6 +54,9 @@ pub fn sweep_header(
         "tool",
         format!("hoverbench rig-host {}", env!("CARGO_PKG_VERSION")),
     );
-    h.push("started", jiff::Timestamp::now().to_string());
+    h.push(
+        "started",
+        humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string(),
+    );
     h
 }

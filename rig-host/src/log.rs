@@ -368,7 +368,7 @@ impl SweepLog {
             log.comment(&format!(
                 "resumed: after {} complete steps, {}",
                 state.rows.len(),
-                jiff::Timestamp::now()
+                humantime::format_rfc3339_seconds(std::time::SystemTime::now())
             ))?;
         }
         Ok((log, state))

@@ -256,7 +256,7 @@ pub fn fit_sweeps(
         degree,
         rotors,
         tool: format!("hoverbench rig-host {}", env!("CARGO_PKG_VERSION")),
-        created: jiff::Timestamp::now().to_string(),
+        created: humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string(),
     };
     let done = fit::sweeps::fit_sweeps(&nominal, Some(&limit), &opts)?;
     Ok((done.params, done.summary))

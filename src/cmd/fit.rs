@@ -131,7 +131,7 @@ pub fn run(args: Args) -> Result<()> {
         degree: args.degree,
         rotors: args.rotors,
         tool: format!("hoverbench {}", env!("CARGO_PKG_VERSION")),
-        created: jiff::Timestamp::now().to_string(),
+        created: humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string(),
     };
     let done = fit_sweeps(&data, limit.as_ref(), &opts)?;
     let (file, fitted) = (&done.params, &done.fit);

@@ -126,7 +126,7 @@ pub fn session_figures(
 fn write(args: &Args) -> Result<Vec<String>> {
     let written_by = format!(
         "written {} by hoverbench {}",
-        jiff::Timestamp::now(),
+        humantime::format_rfc3339_seconds(std::time::SystemTime::now()),
         env!("CARGO_PKG_VERSION")
     );
     // The platform: the flags, else the session's platform.toml, else Fig. 3 alone.
