@@ -1,6 +1,7 @@
 //! Every decoder, on arbitrary and on corrupted input: an error or a flight, never a panic; and
 //! every flight it does return is consistent. 256 cases per property (proptest's default);
-//! `PROPTEST_CASES=100000 cargo test --release -p flightlog --test never_panics` for more.
+//! `PROPTEST_CASES=100000 cargo test --release -p flightlog --test integration never_panics::`
+//! for more.
 
 mod common;
 

@@ -464,6 +464,29 @@ pub struct GapReport {
     pub heldout_series: Vec<HeldoutSeries>,
 }
 
+/// [`run`] with the baseline estimated from the training flights. Not generic, so it is
+/// compiled, and optimised, in this crate rather than in the caller's (a generic function is
+/// compiled where its type is named): the CLI's tests run the diagnosis in a debug build.
+pub fn run_from_training(
+    train: &[&FlightRecord],
+    heldout: &[&FlightRecord],
+    opts: &DiagnoseOptions,
+) -> Result<GapReport, GapError> {
+    run::<ConstantPower>(Baseline::FromTraining, train, heldout, opts)
+}
+
+/// [`run`] with a rig characterisation's curve as the baseline (compiled here, as
+/// [`run_from_training`]).
+pub fn run_with_rig(
+    curve: &estimator::PolyCurve,
+    rotor_count: u8,
+    train: &[&FlightRecord],
+    heldout: &[&FlightRecord],
+    opts: &DiagnoseOptions,
+) -> Result<GapReport, GapError> {
+    run(Baseline::Rig(curve, rotor_count), train, heldout, opts)
+}
+
 /// Runs the diagnosis with either baseline.
 pub fn run<C: PowerCurve>(
     baseline: Baseline<'_, C>,

@@ -315,6 +315,50 @@ pub fn residuals(
     }
 }
 
+/// The σ of every residual [`residuals`] writes, in its order: they depend on the measured
+/// values alone, so a fit computes them once, not at every evaluation.
+fn sigmas(sweeps: &[&Sweep], qs: &[Quantity], floors: &NoiseFloors, scale: &Scale) -> Vec<f64> {
+    let mut out = Vec::new();
+    for s in sweeps {
+        for o in &s.steps {
+            for &q in qs {
+                if let Some(m) = o.measured(q) {
+                    let (rel, abs) = floors.of(q);
+                    out.push(
+                        ((rel * m).powi(2) + (abs * scale.max(q)).powi(2))
+                            .sqrt()
+                            .max(1e-12),
+                    );
+                }
+            }
+        }
+    }
+    out
+}
+
+/// [`residuals`] with the σ of [`sigmas`]: the same numbers, bit for bit.
+fn residuals_with(
+    p: &Params,
+    sweeps: &[&Sweep],
+    qs: &[Quantity],
+    sigma: &[f64],
+    out: &mut Vec<f64>,
+) {
+    let mut k = 0;
+    for s in sweeps {
+        let pred = s.predict(p);
+        for (o, pr) in s.steps.iter().zip(&pred) {
+            for &q in qs {
+                if let Some(m) = o.measured(q) {
+                    let v = (q.predicted(pr) - m) / sigma[k];
+                    k += 1;
+                    out.push(if v.is_finite() { v } else { 1e6 });
+                }
+            }
+        }
+    }
+}
+
 /// Fits `free` (base and/or effect parameters) to the sweeps, starting from `start`; the other
 /// parameters stay as they are. `priors` apply to free positive parameters.
 pub fn fit(
@@ -353,9 +397,10 @@ pub fn fit(
         }
         p
     };
+    let sigma = sigmas(sweeps, &qs, floors, &scale);
     let f = |x: &[f64], out: &mut Vec<f64>| {
         let p = build(x);
-        residuals(&p, sweeps, &qs, floors, &scale, out);
+        residuals_with(&p, sweeps, &qs, &sigma, out);
         for &(k, c, s) in &pri {
             out.push((x[k] - c) / s);
         }

@@ -377,10 +377,15 @@ pub fn predict_sweep(p: &Params, points: &[Point]) -> Vec<Prediction> {
     let drift_tau = p.get(Param::LoadcellTauS).max(1e-3);
     // The zero's drift since the log started, first order: rate·τ·(1 − e^(−t/τ)).
     let drift = |t: f64| rate * drift_tau * -(-t / drift_tau).exp_m1();
+    // Without drift (or blockage, thermal and supply dynamics, a Reynolds exponent) the terms
+    // below are exact zeros or ones: they are skipped, not approximated, so every prediction is
+    // bit for bit what the full expressions give (these evaluations are most of a fit's time).
+    let no_drift = rate == 0.0 && drift_tau.is_finite();
     let block = p.get(Param::BlockageFraction);
     let discharge = p.get(Param::DischargeVPerAs);
     let r1 = p.get(Param::PolarisationOhm);
     let tau1 = p.get(Param::PolarisationTauS).max(1e-3);
+    let dynamic = !(rth == 0.0 && discharge == 0.0 && r1 == 0.0);
     let mut v_rc_prev = 0.0;
     let mut charge_as = 0.0;
     let kt = 30.0 / (std::f64::consts::PI * kv);
@@ -390,14 +395,25 @@ pub fn predict_sweep(p: &Params, points: &[Point]) -> Vec<Prediction> {
         .enumerate()
         .map(|(k, pt)| {
             let dt = dt_of(k);
-            let relax = 1.0 - (-dt / tau).exp();
-            let relax1 = 1.0 - (-dt / tau1).exp();
+            let (relax, relax1) = if dynamic {
+                (1.0 - (-dt / tau).exp(), 1.0 - (-dt / tau1).exp())
+            } else {
+                (0.0, 0.0)
+            };
             // Load cell: reading = (1 − blockage)·T + offset + the drift since it was tared.
-            let creep = drift(pt.time_s) - drift(pt.tare_time_s);
+            let creep = if no_drift {
+                0.0
+            } else {
+                drift(pt.time_s) - drift(pt.tare_time_s)
+            };
             let t_true = ((pt.thrust_g - off - creep) / (1.0 - block)).max(1e-9);
             let rpm = 1000.0 * (t_true / ct).sqrt();
             let omega = rpm * std::f64::consts::PI / 30.0;
-            let cq_eff = cq * (rpm.max(1.0) / p.reference_rpm).powf(re_a);
+            let cq_eff = if re_a == 0.0 {
+                cq
+            } else {
+                cq * (rpm.max(1.0) / p.reference_rpm).powf(re_a)
+            };
             let q = cq_eff * (rpm / 1000.0).powi(2);
             let im = q / kt + i0 + slope * rpm / 1000.0;
             // The step is read at the end of its dwell: the winding has heated and the battery
@@ -407,6 +423,7 @@ pub fn predict_sweep(p: &Params, points: &[Point]) -> Vec<Prediction> {
             let mut i_bus = 0.0;
             let mut pred = None;
             for _ in 0..3 {
+                let i_bus_in = i_bus;
                 let r = r0 * (1.0 + COPPER_ALPHA_PER_K * rise);
                 let vm = kt * omega + im * r;
                 let p_motor = vm * im;
@@ -417,13 +434,19 @@ pub fn predict_sweep(p: &Params, points: &[Point]) -> Vec<Prediction> {
                     let duty = (vm / vbus).min(1.0);
                     let e = (eta * (1.0 - esc_e * (1.0 - duty))).max(0.05);
                     p_in = p_motor / e;
-                    vbus = match pt.measured_current_a {
+                    let next = match pt.measured_current_a {
                         Some(i) => (voc - rs * i).max(0.05 * v0),
                         None => {
                             let disc = voc * voc - 4.0 * rs * p_in;
                             0.5 * (voc + disc.max(0.0).sqrt())
                         }
                     };
+                    // A fixed point reached exactly: further passes would repeat this one.
+                    let settled = next.to_bits() == vbus.to_bits();
+                    vbus = next;
+                    if settled {
+                        break;
+                    }
                 }
                 i_bus = pt.measured_current_a.unwrap_or(p_in / vbus);
                 let pcu = im * im * r;
@@ -440,11 +463,21 @@ pub fn predict_sweep(p: &Params, points: &[Point]) -> Vec<Prediction> {
                     copper_loss_w: pcu,
                     winding_rise_k: rise,
                 });
-                if rth == 0.0 && discharge == 0.0 && r1 == 0.0 {
+                if !dynamic {
                     break;
                 }
-                rise = rise_prev + (rth * pcu - rise_prev) * relax;
-                v_rc = v_rc_prev + (i_bus * r1 - v_rc_prev) * relax1;
+                let next_rise = rise_prev + (rth * pcu - rise_prev) * relax;
+                let next_v_rc = v_rc_prev + (i_bus * r1 - v_rc_prev) * relax1;
+                // The state this pass started from came back exactly (e.g. a measured current
+                // drives the supply): a further pass would repeat this one.
+                let settled = next_rise.to_bits() == rise.to_bits()
+                    && next_v_rc.to_bits() == v_rc.to_bits()
+                    && i_bus.to_bits() == i_bus_in.to_bits();
+                rise = next_rise;
+                v_rc = next_v_rc;
+                if settled {
+                    break;
+                }
             }
             rise_prev = rise;
             v_rc_prev = v_rc;

@@ -120,13 +120,19 @@ pub fn solve(
         let w: Vec<f64> = r.iter().map(|&v| huber(v, delta).1).collect();
         let mut jtj = DMatrix::<f64>::zeros(m, m);
         let mut g = DVector::<f64>::zeros(m);
-        for i in 0..n {
-            for a in 0..m {
-                let ja = j[(i, a)] * w[i];
-                g[a] += ja * r[i];
-                for b in a..m {
-                    jtj[(a, b)] += ja * j[(i, b)];
-                }
+        // JᵀWJ and JᵀWr column by column (J is column-major): every sum runs over the
+        // residuals in order, as a row-by-row accumulation would, on contiguous memory.
+        let js = j.as_slice();
+        let mut wa = vec![0.0; n];
+        for a in 0..m {
+            let ca = &js[a * n..(a + 1) * n];
+            for ((v, c), wi) in wa.iter_mut().zip(ca).zip(&w) {
+                *v = c * wi;
+            }
+            g[a] = wa.iter().zip(&r).fold(0.0, |s, (v, ri)| s + v * ri);
+            for b in a..m {
+                let cb = &js[b * n..(b + 1) * n];
+                jtj[(a, b)] = wa.iter().zip(cb).fold(0.0, |s, (v, c)| s + v * c);
             }
         }
         for a in 0..m {

@@ -12,7 +12,7 @@ use gap::diagnose::{DiagnoseOptions, LevelErrors};
 use gap::flight::FlightRecord;
 use gap::logs::{
     Baseline, ConstantPower, GapReport, MIN_FLIGHTS_FOR_ATTRIBUTION, localise_only,
-    record_from_log, run as run_gap, split_flights,
+    record_from_log, run_from_training, run_with_rig, split_flights,
 };
 
 use crate::output::{self, Table};
@@ -293,13 +293,8 @@ pub fn run(args: Args) -> Result<()> {
     let tr: Vec<&FlightRecord> = train.iter().collect();
     let he: Vec<&FlightRecord> = held.iter().collect();
     let report: GapReport = match &params {
-        Some(params) => run_gap(
-            Baseline::Rig(&params.curve, params.rotor_count),
-            &tr,
-            &he,
-            &opts,
-        )?,
-        None => run_gap::<ConstantPower>(Baseline::FromTraining, &tr, &he, &opts)?,
+        Some(params) => run_with_rig(&params.curve, params.rotor_count, &tr, &he, &opts)?,
+        None => run_from_training(&tr, &he, &opts)?,
     };
     let d = &report.diagnosis;
     let verdict_words = if d.verdict.is_empty() {

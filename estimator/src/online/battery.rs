@@ -259,7 +259,8 @@ pub fn monotone_cubic(knots: &[f64; OCV_KNOTS], x: f64) -> (f64, f64) {
     let n = OCV_KNOTS - 1;
     let x = if x.is_nan() { 0.0 } else { x.clamp(0.0, 1.0) };
     let u = x * n as f64;
-    let i = (libm::floor(u) as usize).min(n - 1);
+    // (`u` is in 0..=n: truncation is its floor, without a call into libm.)
+    let i = (u as usize).min(n - 1);
     let t = u - i as f64;
     let d = |j: usize| k[j + 1] - k[j];
     let slope = |j: usize| -> f64 {
