@@ -13,6 +13,8 @@
 
 #[path = "cli.rs"]
 mod cli;
+#[path = "error_chain.rs"]
+mod error_chain;
 #[path = "export.rs"]
 mod export;
 #[path = "flights.rs"]
