@@ -339,7 +339,14 @@ impl Ctx<'_> {
                 })
                 .collect();
         }
-        if effects.contains(&Effect::SupplySag) && start.get(Param::SourceResistanceOhm) == 0.0 {
+        // (In the short form with the polarisation branch off, its resistance 0 and not fitted,
+        // its time constant changes no prediction: a second start would repeat the first fit.)
+        let branch_off =
+            short.contains(&Effect::SupplySag) && start.get(Param::PolarisationOhm) == 0.0;
+        if effects.contains(&Effect::SupplySag)
+            && start.get(Param::SourceResistanceOhm) == 0.0
+            && !branch_off
+        {
             starts = starts
                 .iter()
                 .flat_map(|s| {
