@@ -6,6 +6,11 @@
 //! The rig runs at `speed` × real time (the supply answers in real time, like an
 //! instrument); a host talks to both through [`SimBench::rig_path`] and
 //! [`SimBench::supply_path`] exactly as it would to hardware.
+//!
+//! The host runs in real time, so the rig's host timeout is kept in real time too: the
+//! preset's `firmware.host_timeout_us` is multiplied by `speed` (at 10× the paper's 250 ms
+//! becomes 2.5 s of rig time, 250 ms of the host's). Unscaled, a host at 10× would have to
+//! answer within 25 ms, which a loaded machine does not guarantee; on hardware it has 250 ms.
 
 use std::io;
 
@@ -60,9 +65,18 @@ pub fn supply_bus(device: Device) -> Box<dyn sim::world::ExternalBus> {
     })
 }
 
+/// A host timeout of `host_timeout_us` of real time, in the time of a rig running at `speed`
+/// × real time.
+pub fn host_timeout_in_rig_time_us(host_timeout_us: u64, speed: f64) -> u64 {
+    (host_timeout_us as f64 * speed).round() as u64
+}
+
 impl SimBench {
     /// Starts both on their pseudo-terminals.
-    pub fn spawn(preset: Preset, options: SimBenchOptions) -> io::Result<Self> {
+    /// The rig's host timeout is scaled to real time (module docs).
+    pub fn spawn(mut preset: Preset, options: SimBenchOptions) -> io::Result<Self> {
+        preset.firmware.host_timeout_us =
+            host_timeout_in_rig_time_us(preset.firmware.host_timeout_us, options.speed);
         let config = SimConfig {
             rating_current_a: 30.0,
             initial: supply::sim::Settings {
