@@ -22,10 +22,14 @@ impl Skipped {
     pub fn why(&self) -> String {
         let file = self.path.display().to_string();
         let reason = crate::summary::error_chain(&self.reason);
-        reason
+        if let Some(rest) = reason
             .strip_prefix(&format!("{file}: "))
             .or_else(|| reason.strip_prefix(&format!("{file}, ")))
-            .map_or_else(|| reason.clone(), str::to_owned)
+        {
+            return rest.to_owned();
+        }
+        // "cannot read FILE: why" → "cannot read: why"
+        reason.replacen(&format!(" {file}"), "", 1)
     }
 }
 
@@ -328,6 +332,21 @@ fn read_parallel<T: Sync, R: Send>(items: &[T], f: impl Fn(&T) -> R + Sync) -> V
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn why_names_the_file_once() {
+        let path = PathBuf::from("/nowhere/f1.ulg");
+        let skipped = Skipped {
+            reason: FlightLogError::Io {
+                path: path.clone(),
+                error: std::io::Error::from(std::io::ErrorKind::NotFound),
+            },
+            path,
+        };
+        let why = skipped.why();
+        assert!(!why.contains("f1.ulg"), "{why}");
+        assert!(why.starts_with("cannot read: "), "{why}");
+    }
 
     #[test]
     fn natural_order() {
