@@ -10,28 +10,12 @@ mod independence;
 mod paper_curve;
 mod real_stands;
 
+#[path = "../../test-support/test_files.rs"]
+mod test_files;
+
 /// Every `tests/*.rs` file is a module of this binary (with `autotests = false`, cargo would
 /// silently build none that is left out).
 #[test]
 fn every_test_file_is_a_module_of_this_binary() {
-    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests");
-    let main = std::fs::read_to_string(dir.join("main.rs")).expect("tests/main.rs");
-    let mut missing = Vec::new();
-    for entry in std::fs::read_dir(&dir).expect("tests/") {
-        let name = entry
-            .expect("entry")
-            .file_name()
-            .to_string_lossy()
-            .into_owned();
-        if let Some(stem) = name.strip_suffix(".rs")
-            && stem != "main"
-            && !main.lines().any(|l| l.trim() == format!("mod {stem};"))
-        {
-            missing.push(name);
-        }
-    }
-    assert!(
-        missing.is_empty(),
-        "not declared in tests/main.rs: {missing:?}"
-    );
+    test_files::assert_every_test_file_is_a_module(env!("CARGO_MANIFEST_DIR"));
 }
