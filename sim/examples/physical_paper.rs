@@ -7,17 +7,17 @@
 //! cargo run -p sim --example physical_paper
 //! ```
 //!
-//! The physical rotor is the one `rig-gap --preset paper` holds fixed (derived there, in
-//! `rig-gap/src/presets.rs`; typed here because `sim` must not depend on the diagnosis):
-//! static `C_T` 0.10 and `C_P` 0.045 at 200 mm (figure of merit 0.56), winding plus ESC 0.2 Ω,
-//! no-load current 0.4 A (typical values), `K_v` 566 rpm/V (the published 260 g at 12.6 V), no
-//! drag rise. It is run twice: as is, and with the no-load current rising 0.2287 A per 1000 rpm
-//! (the effect `rig-gap --preset paper` names on the Fig. 3 curve), as `sim`'s iron drag.
+//! The physical rotor is `sim`'s `paper-physical` preset ([`sim::presets::paper_physical`]), the
+//! one `rig-gap --preset paper` holds fixed: static `C_T` 0.10 and `C_P` 0.045 at 200 mm (figure
+//! of merit 0.56), winding plus ESC 0.2 Ω, no-load current 0.4 A, ESC 95 % (typical values),
+//! `K_v` 566 rpm/V (the published 260 g at 12.6 V), no drag rise. It is run twice: as is, and
+//! with the no-load current rising 0.2287 A per 1000 rpm (the effect `rig-gap --preset paper`
+//! names on the Fig. 3 curve), as `sim`'s iron drag.
 //!
 //! This is the noise-free steady state, not the firmware-and-protocol path of
 //! `tests/paper_preset.rs`; for the preset as it is the two agree within that test's tolerance.
 
-use sim::physics::{Motor, Propeller, Propulsion, Supply};
+use sim::physics::{Motor, Propulsion, Supply};
 use sim::presets;
 
 #[path = "../tests/support/poly.rs"]
@@ -101,31 +101,21 @@ fn run(name: &str, unit: &Propulsion) {
 fn main() {
     let p = presets::paper();
     run(
-        "sim `paper` preset as it is (k_Q 0.1 x momentum theory, drag rise ~ w^9.6)",
+        "sim `paper` preset as it is (calibrated: k_Q 0.1 x momentum theory, drag rise ~ w^9.6)",
         &Propulsion::new(p.motor, p.prop, p.esc),
     );
-    let pi = std::f64::consts::PI;
-    let (rho, d) = (1.225f64, 0.2f64);
-    let kv = 566.18;
-    let ke = 60.0 / (2.0 * pi * kv);
-    let prop = Propeller {
-        // T = C_T·ρ·n²·D⁴, Q = C_P·ρ·n²·D⁵/(2π), n = ω/(2π).
-        k_t: 0.10 * rho * d.powi(4) / (4.0 * pi * pi),
-        k_q: 0.045 * rho * d.powi(5) / (2.0 * pi).powi(3),
-        drag_rise_torque_nm: 0.0,
-        drag_rise_exponent: 2.0,
+    let q = presets::paper_physical();
+    run(
+        "sim `paper-physical` preset (physical rotor)",
+        &Propulsion::new(q.motor, q.prop, q.esc),
+    );
+    let slope_a_per_krpm = 0.2287;
+    let motor = Motor {
+        iron_drag_nm_s: q.motor.ke() * slope_a_per_krpm / (1000.0 * std::f64::consts::PI / 30.0),
+        ..q.motor
     };
-    for slope_a_per_krpm in [0.0, 0.2287] {
-        let motor = Motor {
-            kv_rpm_per_v: kv,
-            resistance_ohm: 0.2,
-            no_load_current_a: 0.4,
-            iron_drag_nm_s: ke * slope_a_per_krpm / (1000.0 * pi / 30.0),
-            inertia_kg_m2: p.motor.inertia_kg_m2,
-        };
-        run(
-            &format!("physical rotor, no-load slope {slope_a_per_krpm} A per 1000 rpm"),
-            &Propulsion::new(motor, prop, p.esc),
-        );
-    }
+    run(
+        &format!("`paper-physical` + no-load slope {slope_a_per_krpm} A per 1000 rpm"),
+        &Propulsion::new(motor, q.prop, q.esc),
+    );
 }

@@ -3,7 +3,9 @@
 //! State: rotor speed ω (rad/s). Per step, with ESC duty `d` from the pulse width:
 //!
 //! ```text
-//! supply   V_bus = V_set − R_src·I_bus,         I_bus = d·I        (bench leads / pack resistance)
+//! supply   V_bus = V_set − R_src·I_bus,         I_bus = d·I/η      (bench leads / pack resistance;
+//!                                                                  ESC efficiency η, ·η regenerating)
+//! duty     d = d_max·u^γ,   u = (pulse − min)/(max − min)          (ESC throttle map; γ = 1: linear)
 //! motor    d·V_bus = K_e·ω + R·I                                   (back-EMF + winding/ESC resistance)
 //! torque   J·dω/dt = K_t·I − Q(ω),   K_t = K_e
 //! load     Q(ω) = K_t·I₀ + b_v·ω + k_Q·ω² + k_s·(ω/1000)^n_s     (friction, iron drag, propeller,
@@ -63,12 +65,35 @@ pub struct Esc {
     pub max_us: f64,
     /// Duty at full throttle (≤ 1).
     pub max_duty: f64,
+    /// Exponent `γ` of the throttle-to-duty map `d = d_max·u^γ` (`u` the pulse width's fraction
+    /// of `min_us..max_us`); 1 is a linear ESC.
+    pub curve_exponent: f64,
+    /// Efficiency `η`: the share of the bus power that reaches the motor while driving (switching
+    /// and other losses not in the motor's resistance); the bus current is `d·I/η` (`d·I·η`
+    /// while regenerating). 1 is a lossless ESC.
+    pub efficiency: f64,
 }
 
 impl Esc {
     /// Duty cycle for a pulse width.
     pub fn duty(&self, throttle_us: f64) -> f64 {
-        ((throttle_us - self.min_us) / (self.max_us - self.min_us)).clamp(0.0, 1.0) * self.max_duty
+        let u = ((throttle_us - self.min_us) / (self.max_us - self.min_us)).clamp(0.0, 1.0);
+        let shaped = if self.curve_exponent == 1.0 {
+            u
+        } else {
+            u.powf(self.curve_exponent)
+        };
+        shaped * self.max_duty
+    }
+
+    /// Bus current per unit of `d·I` (duty times motor current): `1/η` while the motor is
+    /// driven (`drive` true), `η` while it regenerates.
+    pub fn bus_factor(&self, drive: bool) -> f64 {
+        if drive {
+            1.0 / self.efficiency
+        } else {
+            self.efficiency
+        }
     }
 }
 
@@ -82,8 +107,8 @@ pub struct Supply {
 }
 
 /// What the rig's ESC and motor draw from the bus at one instant, as a function of the bus
-/// voltage: `I_bus(V) = d·(d·V − K_e·ω)/R` for duty `d`, back-EMF `K_e·ω` and winding
-/// resistance `R`. An external supply model (see [`crate::world::ExternalBus`]) solves its
+/// voltage: `I_bus(V) = d·(d·V − K_e·ω)/R · f` for duty `d`, back-EMF `K_e·ω`, winding
+/// resistance `R` and the ESC's bus factor `f` (`1/η` driving, `η` regenerating). An external supply model (see [`crate::world::ExternalBus`]) solves its
 /// output against this.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BusLoad {
@@ -93,12 +118,20 @@ pub struct BusLoad {
     pub back_emf_v: f64,
     /// Winding plus ESC resistance, Ω.
     pub resistance_ohm: f64,
+    /// ESC efficiency (see [`Esc::efficiency`]).
+    pub efficiency: f64,
 }
 
 impl BusLoad {
     /// Bus current drawn at `bus_voltage_v` (negative when regenerating), A.
     pub fn current_a(&self, bus_voltage_v: f64) -> f64 {
-        self.duty * (self.duty * bus_voltage_v - self.back_emf_v) / self.resistance_ohm
+        let drive_v = self.duty * bus_voltage_v - self.back_emf_v;
+        let f = if drive_v >= 0.0 {
+            1.0 / self.efficiency
+        } else {
+            self.efficiency
+        };
+        self.duty * drive_v / self.resistance_ohm * f
     }
 }
 
@@ -161,6 +194,7 @@ impl Propulsion {
             duty: self.esc.duty(throttle_us),
             back_emf_v: self.motor.ke() * self.omega_rad_s,
             resistance_ohm: self.motor.resistance_ohm,
+            efficiency: self.esc.efficiency,
         }
     }
 
@@ -187,9 +221,15 @@ impl Propulsion {
     pub fn electrical(&self, d: f64, omega: f64, supply: Supply) -> Electrical {
         let r = self.motor.resistance_ohm;
         let ke = self.motor.ke();
-        // I_bus (1 + d² R_src / R) = d (d V_set − Ke ω) / R
-        let bus_current_a =
-            d * (d * supply.voltage_v - ke * omega) / r / (1.0 + d * d * supply.resistance_ohm / r);
+        // I_bus = f d I, I = (d V_bus − Ke ω)/R, V_bus = V_set − R_src I_bus:
+        // I_bus (1 + f d² R_src / R) = f d (d V_set − Ke ω) / R; the sign of I (drive or
+        // regeneration) is that of d V_set − Ke ω.
+        let f = self
+            .esc
+            .bus_factor(d * supply.voltage_v - ke * omega >= 0.0);
+        let bus_current_a = f * d * (d * supply.voltage_v - ke * omega)
+            / r
+            / (1.0 + f * d * d * supply.resistance_ohm / r);
         let bus_voltage_v = supply.voltage_v - supply.resistance_ohm * bus_current_a;
         let motor_current_a = (d * bus_voltage_v - ke * omega) / r;
         Electrical {

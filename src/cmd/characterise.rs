@@ -65,7 +65,8 @@ pub struct Args {
     /// automatically; with ports you are asked to place each].
     #[arg(long, value_name = "G,G,…", value_delimiter = ',')]
     calibrate: Vec<f64>,
-    /// Simulation: the bench preset.
+    /// Simulation: the bench preset (`paper`, calibrated to the paper; `paper-physical`;
+    /// `ctu-2312-9450`).
     #[arg(long, default_value = "paper")]
     preset: String,
     /// Simulation: seed of the sensor noise.
@@ -238,7 +239,9 @@ pub fn run(args: Args) -> Result<()> {
 fn finish(args: &Args, summary: &session::SessionSummary, finished_before: bool) -> Result<()> {
     // The figures: the given platform, else the one the session stored, else the paper's for
     // the simulated paper rig.
-    let simulated_paper = args.rig.is_none() && args.preset == "paper" && !finished_before;
+    let simulated_paper = args.rig.is_none()
+        && matches!(args.preset.as_str(), "paper" | "paper-physical")
+        && !finished_before;
     let stored = reports::session::SessionPlatform::load(&args.output)?;
     let platform = match (args.structure_mass, args.avionics_power) {
         (Some(m), Some(p)) => Some((m, p, None)),

@@ -7,7 +7,7 @@ use std::io::Write;
 /// Arguments of `hoverbench sim-rig`.
 #[derive(Debug, Clone, clap::Args)]
 pub struct Args {
-    /// Bench preset: `paper` or `ctu-2312-9450`.
+    /// Bench preset: `paper` (calibrated to the paper), `paper-physical` or `ctu-2312-9450`.
     #[arg(long, default_value = "paper")]
     pub preset: String,
     /// Simulated time per real time (e.g. 10 runs the rig clock ten times faster).
