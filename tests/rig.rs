@@ -215,6 +215,54 @@ fn characterise_on_the_simulated_bench_lands_on_the_paper_optima() {
     assert_eq!(std::fs::read(session.join("sweep.csv")).unwrap(), before);
 }
 
+/// The physical `paper-physical` preset through the whole session: what must hold for a rotor
+/// of those values (its thrust limit at 9.0 V, its overall figure of merit), and that the
+/// session completes with the paper's platform figures but without Battery A's mission, which
+/// that rotor cannot lift at 9.0 V. It does not land on the paper's optima, and no physical
+/// rotor does (`sim::presets` module docs).
+#[test]
+fn characterise_with_the_physical_paper_preset() {
+    let _g = serial();
+    let dir = tempfile::tempdir().unwrap();
+    let session = dir.path().join("session");
+    let s = session.to_str().unwrap();
+    let out = ok(&[
+        "characterise",
+        "--preset",
+        "paper-physical",
+        "--speed",
+        "5",
+        "-o",
+        s,
+    ]);
+    assert!(out.contains("simulated `paper-physical` rig"), "{out}");
+    assert!(session.join("report").join("report.html").exists());
+    let platform = std::fs::read_to_string(session.join("platform.toml")).unwrap();
+    assert!(platform.contains("structure_mass_kg = 0.431"), "{platform}");
+    assert!(!platform.contains("battery_mass_kg"), "{platform}");
+    let fit: Value = serde_json::from_str(&ok(&[
+        "fit",
+        session.join("sweep.csv").to_str().unwrap(),
+        "--limit",
+        session.join("limit.csv").to_str().unwrap(),
+        "--json",
+    ]))
+    .unwrap();
+    // 260 g at 12.6 V gives ≈ 260·(9/12.6)² = 133 g at 9.0 V for a low-resistance motor.
+    let per_rotor = fit["thrust_limit"]["total_kg"].as_f64().unwrap() * 250.0;
+    assert!((130.0..=140.0).contains(&per_rotor), "limit {per_rotor} g");
+    // Electrical power at 150 g against momentum theory's ideal for a 200 mm disk: the overall
+    // figure of merit of typical parts, 0.35–0.55 (Fig. 3's reconstruction has 0.24).
+    let p150 = fitted_power(&fit, 150.0);
+    let ideal_w =
+        (0.150f64 * 9.80665).powf(1.5) / (2.0 * 1.225 * std::f64::consts::PI * 0.01).sqrt();
+    let overall = ideal_w / p150;
+    println!(
+        "paper-physical session: limit {per_rotor:.1} g, {p150:.2} W at 150 g, overall FM {overall:.3}"
+    );
+    assert!((0.35..=0.55).contains(&overall), "{overall}");
+}
+
 #[test]
 fn bad_characterise_settings_fail_before_the_rig_moves() {
     let dir = tempfile::tempdir().unwrap();

@@ -238,7 +238,8 @@ pub fn run(args: Args) -> Result<()> {
 /// (or, `finished_before`, was only regenerated).
 fn finish(args: &Args, summary: &session::SessionSummary, finished_before: bool) -> Result<()> {
     // The figures: the given platform, else the one the session stored, else the paper's for
-    // the simulated paper rig.
+    // the simulated paper rigs (its Battery A and Table I mission only with `paper`: the
+    // physical `paper-physical` rotor cannot lift that pack at 9.0 V).
     let simulated_paper = args.rig.is_none()
         && matches!(args.preset.as_str(), "paper" | "paper-physical")
         && !finished_before;
@@ -255,7 +256,7 @@ fn finish(args: &Args, summary: &session::SessionSummary, finished_before: bool)
         _ if simulated_paper => Some((
             paper::STRUCTURE_MASS_KG,
             paper::AVIONICS_POWER_W,
-            Some((
+            (args.preset == "paper").then_some((
                 paper::BATTERY_A.mass_kg,
                 paper::BATTERY_A.energy_density_wh_per_kg,
             )),
