@@ -11,7 +11,9 @@
 //!   and bus voltage physically;
 //! - [`world::World`]: the bench — physics plus load-cell (noise, creep, quantisation) and
 //!   current/voltage sensor (noise, offsets) models;
-//! - [`presets`]: `paper` (lands on the paper's targets) and `ctu-2312-9450` (a real motor);
+//! - [`presets`]: `paper` (calibrated to land on the paper's targets, not physical),
+//!   `paper-physical` (the same platform from physical values) and `ctu-2312-9450` (a real
+//!   motor from physical values and the CTU-MRS table);
 //! - [`SimRig`]: the firmware on the simulated bench; [`SimRig::into_client`] gives an
 //!   in-process [`rig_protocol::Client`] (a [`rig_protocol::Rig`]) that runs in simulated time;
 //! - [`pty::PtyRig`]: the same behind a real pseudo-terminal (`hoverbench sim-rig`), with

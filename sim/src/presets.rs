@@ -260,7 +260,7 @@ pub const DJI_9450_DIAMETER_M: f64 = 9.4 * 0.0254;
 /// thrust within 1.6 % on every row (RMS 1.2 %), current and power RMS 3.2 %, worst +6.8 % at
 /// 50 % throttle; at the table's own thrust (no throttle axis), power RMS 2.8 %, worst −4.5 %
 /// at 1024 g, speed within 1.8 %. The physical rotor's power rises more slowly with thrust than
-/// the table's (elasticity 1.52 against 1.61 from 401 to 1024 g; the same direction as the
+/// the table's (elasticity 1.51 against 1.61 from 401 to 1024 g; the same direction as the
 /// paper's curve, much smaller); winding heating at the top rows (about 34 W of copper loss at 100 %)
 /// is the physical term that would close part of it, and `sim` has no thermal model. The fitted preset it replaces (`K_v`
 /// 1400 and 0.68 Ω as "effective values") was within 1.9 %, by fitting seven values to the six

@@ -18,7 +18,9 @@ P(T) = 0.157434234 T + 0.341190317 (T/100)^5.34865728 W over 10..260 g, minimisi
 relative error (least squares, then an L12 refinement). k_Q is pinned at 0.1 x the
 momentum-theory ideal k_T^1.5 / sqrt(2 rho A) for a 200 mm disk: the target is linear in T at
 low thrust, which a propeller with a realistic figure of merit (P ~ T^1.5) cannot follow --
-with k_Q at the ideal value the worst error is ~3 %, with 0.1 x it is 0.30 %.
+with k_Q at the ideal value the worst error is ~3 %, with 0.1 x it is 0.30 %. (That ~3 % keeps
+the fitted iron-drag and drag-rise terms and a figure of merit of 1; it is not a physical-values
+figure. With physical values the miss is ~43 % RMS: the `paper-physical` preset, presets.rs.)
 """
 import numpy as np
 from scipy.optimize import least_squares, minimize
