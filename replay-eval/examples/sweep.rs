@@ -1,5 +1,8 @@
 //! A study on a seed range without the CLI, printing the group table (the flights are flown
 //! once per seed): `cargo run -p replay-eval --example sweep -- FAMILIES FIRST_SEED COUNT`.
+//! `SWEEP_FLIGHTS=1` also lists every flight: its error at 50 % and the filter's state of charge
+//! and curve offset when the pack reached the cut-off (a state of charge well above 0 there is a
+//! pack that ran out earlier than the learned section says: fade, cold, a knee the curve lacks).
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -21,8 +24,14 @@ fn main() {
             for f in &o.flights {
                 let c = &f.checkpoints[1];
                 let d = f.end_s - f.takeoff_s;
+                let state = |n: &str| {
+                    f.final_state
+                        .iter()
+                        .find(|x| x.0 == n)
+                        .map_or(f64::NAN, |x| x.1)
+                };
                 println!(
-                    "{seed:4} {:24} {:18} {:16} err50 {:+6.1} % sigma {:5.1} % static {:+6.1} %",
+                    "{seed:4} {:24} {:18} {:16} err50 {:+6.1} % sigma {:5.1} % static {:+6.1} % | at the cut-off: soc {:.3} offset {:+.3} V",
                     fam.name(),
                     o.condition.name(),
                     f.name,
@@ -30,6 +39,8 @@ fn main() {
                         .map_or(f64::NAN, |p| (p - c.true_remaining_s) / d * 100.0),
                     c.sigma_s.map_or(f64::NAN, |s| s / d * 100.0),
                     c.baselines[2].map_or(f64::NAN, |p| (p - c.true_remaining_s) / d * 100.0),
+                    state("soc"),
+                    state("curve_offset_v"),
                 );
             }
         }

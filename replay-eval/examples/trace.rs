@@ -46,11 +46,17 @@ fn main() {
             battery.cutoff_cell_v
         );
         println!(
-            "  frac      t   true   pred  sigma  err%    V      I phase   | soc   cap_ah  r_ohm  extra_w"
+            "  frac      t   true   pred  sigma  err%    V      I phase   | soc   cap_ah  r_ohm  extra_w  bias_v  Ah_used"
         );
         let s = &flight.samples;
         let mut next = 0.0;
+        let mut used_ah = 0.0;
         for k in 0..s.len() {
+            if k > 0 {
+                if let Some(c) = s.current_a.as_ref() {
+                    used_ah += c[k] * (s.time_s[k] - s.time_s[k - 1]) / 3600.0;
+                }
+            }
             let t = s.time_s[k];
             if t > span.end_s {
                 break;
@@ -72,7 +78,7 @@ fn main() {
                 });
                 let tr = span.end_s - t;
                 println!(
-                    "  {frac:4.2} {t:7.0} {tr:6.0} {pr:6.0} {sg:6.0} {:+5.1} {:6.2} {:6.2} {:8} | {:.3} {:.3} {:.4} {:+.2}",
+                    "  {frac:4.2} {t:7.0} {tr:6.0} {pr:6.0} {sg:6.0} {:+5.1} {:6.2} {:6.2} {:8} | {:.3} {:.3} {:.4} {:+.2} {:+.3} {:.3}",
                     (pr - tr) / span.duration_s() * 100.0,
                     sample.voltage_v,
                     sample.current_a.unwrap_or(f64::NAN),
@@ -81,6 +87,8 @@ fn main() {
                     get("usable_capacity_ah"),
                     get("series_resistance_ohm"),
                     get("extra_power_w"),
+                    get("curve_offset_v"),
+                    used_ah,
                 );
             }
         }

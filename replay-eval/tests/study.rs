@@ -76,3 +76,32 @@ fn heldout_families_meet_issue_14_targets() {
     let t = Targets::of(&held.replay.summary);
     assert!(t.all_met(), "{t:?}");
 }
+
+/// A pinned failure of the online estimator, traced on a tuning scenario (seed 5,
+/// `lipo/fc-10hz/paper`, capacity fade 17 %; `cargo run --release -p replay-eval --example trace
+/// -- lipo/fc-10hz/paper 5 0.1`). On pack A (learned section 2.03 Ah; the faded pack delivers
+/// ≈ 1.57 Ah to the cut-off) the filter keeps the capacity at 2.03 Ah to the end and explains
+/// the voltage falling faster than the counted charge says with the curve-offset state instead
+/// (−0.15 V at 10 % of the flight, −0.48 V at 50 %), so it over-predicts the remaining time by
+/// ≈ 30 % of the flight throughout (the logged power also sits ≈ 9 % below the model's on this
+/// flight: a current sensor reading low, which the charge count cannot see either). The offset is needed: on nominal LiPo flights (tuning seeds
+/// 12, 13) the learned curve sits −0.22…+0.36 V (pack) off before the knee, as much as this fade
+/// moves it, so holding the offset tighter (drift 3e-3 or 1e-3 V/cell/√s, with the
+/// capacity learned faster) made the tuning median worse (4.4 → 5.2…10.1 %). Ignored until the
+/// fade is learned: the test states what "learned" means.
+#[test]
+#[ignore = "issue 14: a 17 % capacity fade is not learned (the curve offset absorbs it); see the doc comment"]
+fn a_seventeen_percent_fade_is_learned_on_tuning_seed_5() {
+    let fam = flight_sim::Family::parse("lipo/fc-10hz/paper").unwrap();
+    let p = replay_eval::prepare_scenario(&fam, 5).unwrap();
+    assert!(matches!(p.condition, Condition::CapacityFade { fraction } if fraction > 0.15));
+    let o = replay_eval::replay_scenario(&p, &OnlineConfig::default());
+    let f = o.flights.iter().find(|f| f.name == "9-hover-A").unwrap();
+    let c = &f.checkpoints[1];
+    let err = (c.predicted_remaining_s.unwrap() - c.true_remaining_s) / f.duration_s();
+    assert!(
+        err.abs() <= 0.03,
+        "error at 50 %: {:+.1} % of the flight",
+        err * 100.0
+    );
+}

@@ -229,6 +229,8 @@ impl OnlinePredictor for Online {
                 ("series_resistance_ohm", e.series_resistance_ohm),
                 ("extra_power_w", e.extra_power_w),
                 ("samples_rejected", f64::from(e.samples_rejected)),
+                ("curve_offset_v", self.est.curve_offset_v().0),
+                ("curve_offset_sigma_v", self.est.curve_offset_v().1),
             ]
         })
     }

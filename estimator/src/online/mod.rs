@@ -510,6 +510,16 @@ impl OnlineEstimator {
         self.idle_power_w
     }
 
+    /// The filter's estimate of the pack's open-circuit offset from the battery model's curve
+    /// and its standard deviation, V at pack level (0 before the first sample): what a trace
+    /// needs to tell a curve that is off from a pack that is emptier than counted.
+    pub fn curve_offset_v(&self) -> (f64, f64) {
+        if !self.initialised {
+            return (0.0, 0.0);
+        }
+        (self.x[VBIAS], libm::sqrt(self.p[(VBIAS, VBIAS)].max(0.0)))
+    }
+
     /// Flies `plan` from the next sample on (its segments progress with the samples' clock;
     /// "until reserve" segments end when the estimated state of charge reaches their reserve).
     /// `options.reserve_floor_fraction` is a floor of state of charge no segment goes below;
