@@ -14,7 +14,7 @@ use crate::battery::{
     BatteryData, BatteryFit, Chemistry, CurrentSource, LearnedBattery, battery_type, fit_battery,
 };
 use crate::flight::{FlightRecord, Phase};
-use crate::model::{Effect, EffectParams, Model, Prediction};
+use crate::model::{Effect, EffectParams, FlightConsts, Model, Prediction};
 use crate::stats::{golden_min, mean, pearson};
 
 /// Noise floors: how closely the model can be expected to follow a flight even when nothing is
@@ -191,6 +191,30 @@ pub fn residuals(
     opts: &DiagnoseOptions,
     window: Window,
 ) -> FlightResiduals {
+    residuals_with(f, pred, opts, window, &phase_times_s(f))
+}
+
+/// Time a flight spends in each phase of [`Phase::ALL`], s: the sum of the sample intervals
+/// that start in it.
+fn phase_times_s(f: &FlightRecord) -> [f64; Phase::ALL.len()] {
+    Phase::ALL.map(|phase| {
+        f.phase
+            .iter()
+            .zip(f.time_s.windows(2))
+            .filter(|(p, _)| **p == phase)
+            .map(|(_, w)| w[1] - w[0])
+            .sum()
+    })
+}
+
+/// [`residuals`] with the flight's [`phase_times_s`] computed once.
+fn residuals_with(
+    f: &FlightRecord,
+    pred: &Prediction,
+    opts: &DiagnoseOptions,
+    window: Window,
+    phase_times: &[f64; Phase::ALL.len()],
+) -> FlightResiduals {
     let fl = &opts.floors;
     let measured_s = f.duration_s();
     let mut chi2 = 0.0;
@@ -257,7 +281,7 @@ pub fn residuals(
     // phase whose mean is noisy weighs as little as the energy it holds.
     let mut phase_power = Vec::new();
     if let Some(cur) = &f.current_a {
-        for phase in Phase::ALL {
+        for (phase, &time) in Phase::ALL.iter().copied().zip(phase_times) {
             let mut meas = Vec::new();
             let mut predp = Vec::new();
             for (k, &i) in pred.index.iter().enumerate() {
@@ -268,13 +292,6 @@ pub fn residuals(
             }
             if meas.len() >= 3 {
                 let (pm, pp) = (mean(&meas).unwrap_or(0.0), mean(&predp).unwrap_or(0.0));
-                let time = f
-                    .phase
-                    .iter()
-                    .zip(f.time_s.windows(2))
-                    .filter(|(p, _)| **p == phase)
-                    .map(|(_, w)| w[1] - w[0])
-                    .sum();
                 phase_power.push(PhasePower {
                     phase,
                     measured_w: pm,
@@ -770,16 +787,67 @@ pub struct Evaluator<'a, C> {
     model: Model<'a, C>,
     batteries: &'a BatterySet,
     opts: DiagnoseOptions,
+    /// What does not change with the effect parameters, per flight given to
+    /// [`Self::with_flights`] (other flights have it computed at every call).
+    known: Vec<Known<'a>>,
+}
+
+/// A flight's battery and the parts of its prediction and residuals that do not depend on the
+/// effect parameters.
+struct Known<'a> {
+    flight: &'a FlightRecord,
+    battery: &'a LearnedBattery,
+    mean_ocv_cell_v: f64,
+    consts: FlightConsts,
+    phase_times_s: [f64; Phase::ALL.len()],
 }
 
 impl<'a, C: PowerCurve> Evaluator<'a, C> {
     /// An evaluator of `model` with `batteries`.
     pub fn new(model: Model<'a, C>, batteries: &'a BatterySet, opts: &DiagnoseOptions) -> Self {
+        Self::with_flights(model, batteries, opts, &[])
+    }
+
+    /// An evaluator that prepares `flights` once (their battery and whatever of their
+    /// prediction does not depend on the effect parameters): the same results as
+    /// [`Self::new`], faster on those flights.
+    pub fn with_flights(
+        model: Model<'a, C>,
+        batteries: &'a BatterySet,
+        opts: &DiagnoseOptions,
+        flights: &[&'a FlightRecord],
+    ) -> Self {
+        let mut known: Vec<Known<'a>> = Vec::with_capacity(flights.len());
+        for &f in flights {
+            if known.iter().any(|k| std::ptr::eq(k.flight, f)) {
+                continue;
+            }
+            let battery = batteries.for_flight(f);
+            // One battery is shared by many flights: its mean is the same number each time.
+            let mean_ocv_cell_v = known
+                .iter()
+                .find(|k| std::ptr::eq(k.battery, battery))
+                .map_or_else(|| battery.mean_ocv_cell_v(), |k| k.mean_ocv_cell_v);
+            known.push(Known {
+                flight: f,
+                battery,
+                mean_ocv_cell_v,
+                consts: FlightConsts::new(&model, f, true),
+                phase_times_s: phase_times_s(f),
+            });
+        }
         Self {
             model,
             batteries,
             opts: *opts,
+            known,
         }
+    }
+
+    fn known(&self, f: &FlightRecord) -> Option<&Known<'a>> {
+        // The known flights are borrowed for 'a: the same address is the same, unchanged
+        // flight.
+        self.known.iter().find(|k| std::ptr::eq(k.flight, f))
     }
 
     fn stride(&self, f: &FlightRecord) -> usize {
@@ -788,8 +856,23 @@ impl<'a, C: PowerCurve> Evaluator<'a, C> {
 
     /// The prediction for one flight.
     pub fn predict(&self, f: &FlightRecord, p: &EffectParams, stride: usize) -> Prediction {
-        self.model
-            .predict(f, self.batteries.for_flight(f), p, stride)
+        match self.known(f) {
+            Some(k) => {
+                self.model
+                    .predict_with(f, k.battery, k.mean_ocv_cell_v, &k.consts, p, stride)
+            }
+            None => self
+                .model
+                .predict(f, self.batteries.for_flight(f), p, stride),
+        }
+    }
+
+    fn residuals_of(&self, f: &FlightRecord, p: &EffectParams, window: Window) -> FlightResiduals {
+        let pred = self.predict(f, p, self.stride(f));
+        match self.known(f) {
+            Some(k) => residuals_with(f, &pred, &self.opts, window, &k.phase_times_s),
+            None => residuals(f, &pred, &self.opts, window),
+        }
     }
 
     /// Residuals of every flight.
@@ -805,7 +888,7 @@ impl<'a, C: PowerCurve> Evaluator<'a, C> {
     ) -> Vec<FlightResiduals> {
         flights
             .iter()
-            .map(|f| residuals(f, &self.predict(f, p, self.stride(f)), &self.opts, window))
+            .map(|f| self.residuals_of(f, p, window))
             .collect()
     }
 
@@ -1406,7 +1489,8 @@ pub fn diagnose_with<C: PowerCurve>(
     if heldout.is_empty() {
         return Err(GapError::NoFlights("held-out"));
     }
-    let ev = Evaluator::new(model, batteries, opts);
+    let all: Vec<&FlightRecord> = train.iter().chain(heldout).copied().collect();
+    let ev = Evaluator::with_flights(model, batteries, opts, &all);
     let base = EffectParams::baseline();
     let base_train = ev.residuals(train, &base);
     let base_held = ev.residuals(heldout, &base);
@@ -1417,7 +1501,6 @@ pub fn diagnose_with<C: PowerCurve>(
     let th = opts.thresholds;
     let within_noise = baseline.training.chi2_per_obs <= th.none_chi2_per_obs;
 
-    let all: Vec<&FlightRecord> = train.iter().chain(heldout).copied().collect();
     let all_res: Vec<FlightResiduals> = base_train.iter().chain(&base_held).cloned().collect();
     let r#where = localise(&all, &all_res);
 

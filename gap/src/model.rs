@@ -284,12 +284,27 @@ impl<C: PowerCurve> Model<'_, C> {
         p: &EffectParams,
         stride: usize,
     ) -> Prediction {
+        let consts = FlightConsts::new(self, f, p.get(Effect::ClimbPower) != 0.0);
+        self.predict_with(f, battery, battery.mean_ocv_cell_v(), &consts, p, stride)
+    }
+
+    /// [`Self::predict`] with what does not change with `p` computed once: `mean_ocv_cell_v`
+    /// is `battery.mean_ocv_cell_v()`, `consts` the flight's [`FlightConsts`] under this model.
+    pub(crate) fn predict_with(
+        &self,
+        f: &FlightRecord,
+        battery: &LearnedBattery,
+        mean_ocv_cell_v: f64,
+        consts: &FlightConsts,
+        p: &EffectParams,
+        stride: usize,
+    ) -> Prediction {
         let cells = f64::from(f.info.cells.max(1));
         let fade = p.get(Effect::CapacityFade);
         // The pack's nominal behaviour with temperature is part of the baseline.
         let (r_temp, c_temp) = crate::lipo::temperature_factors(f.info.ambient_temperature_c);
         let capacity_ah =
-            f.info.battery_energy_wh / (cells * battery.mean_ocv_cell_v()) * c_temp * (1.0 - fade);
+            f.info.battery_energy_wh / (cells * mean_ocv_cell_v) * c_temp * (1.0 - fade);
         let r1 = cells * battery.rc_resistance_cell_ohm * r_temp;
         let tau = battery.rc_time_constant_s;
         let r = cells * battery.series_resistance_cell_ohm.max(0.0) * r_temp
@@ -297,14 +312,14 @@ impl<C: PowerCurve> Model<'_, C> {
         let r = r.max(0.0);
         let peukert = p.get(Effect::Peukert);
         let one_c_a = capacity_ah.max(1e-9);
-        let rotor_w = self.hover_rotor_power_w(f);
+        let rotor_w = consts.rotor_w;
         let vz = if p.get(Effect::ClimbPower) != 0.0 {
-            f.vertical_speed_m_s(2.0)
+            consts.vz.as_deref()
         } else {
             None
         };
         let ceiling = if p.get(Effect::CeilingEffect) != 0.0 {
-            ceiling_height_m(f)
+            consts.ceiling_m
         } else {
             None
         };
@@ -312,11 +327,11 @@ impl<C: PowerCurve> Model<'_, C> {
         let n = f.time_s.len();
         let airborne_a = match f.voltage_v.first() {
             Some(v) if !f.time_s.is_empty() => {
-                self.power_at(f, p, 0, rotor_w, vz.as_deref(), ceiling) / v.max(1e-3)
+                self.power_at(f, p, 0, rotor_w, vz, ceiling) / v.max(1e-3)
             }
             _ => 0.0,
         };
-        let mut soc = f.initial_soc(battery, r, airborne_a);
+        let mut soc = consts.start.initial_soc(f, battery, r, airborne_a);
         let mut v1 = 0.0;
         let mut out = Prediction {
             index: Vec::with_capacity(n / stride + 2),
@@ -353,7 +368,7 @@ impl<C: PowerCurve> Model<'_, C> {
         let mut k = 0;
         while k < n {
             let next = (k + stride).min(n);
-            let w = self.power_at(f, p, k, rotor_w, vz.as_deref(), ceiling);
+            let w = self.power_at(f, p, k, rotor_w, vz, ceiling);
             let st = state(w, soc, v1);
             let (i, v) = match st {
                 Some(s) if s.1 >= cutoff && soc > 0.0 => s,
@@ -382,7 +397,7 @@ impl<C: PowerCurve> Model<'_, C> {
         if out.endurance_s.is_nan() {
             // The log ended first: continue its last phase until the cut-off.
             let last = n.saturating_sub(1);
-            let w = self.power_at(f, p, last, rotor_w, vz.as_deref(), ceiling);
+            let w = self.power_at(f, p, last, rotor_w, vz, ceiling);
             let mut t = f.time_s[last] - f.time_s[0];
             let dt = 1.0;
             let limit = t + 48.0 * 3600.0;
@@ -430,27 +445,96 @@ impl FlightRecord {
         resistance_ohm: f64,
         airborne_current_a: f64,
     ) -> f64 {
-        let cells = f64::from(self.info.cells.max(1));
-        let rest: Vec<f64> = self
+        StartVoltage::of(self).initial_soc(self, battery, resistance_ohm, airborne_current_a)
+    }
+}
+
+/// The voltage a log starts at, as [`FlightRecord::initial_soc`] reads it: the mean of the
+/// samples before the rotors start, else the mean voltage (and logged current) of the first
+/// samples.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum StartVoltage {
+    /// Resting before the rotors start: mean voltage, V.
+    Rest(f64),
+    /// Airborne from the first sample: mean voltage, V, and mean logged current, A.
+    Airborne(f64, Option<f64>),
+    /// No samples.
+    Empty,
+}
+
+impl StartVoltage {
+    fn of(f: &FlightRecord) -> Self {
+        let rest: Vec<f64> = f
             .phase
             .iter()
-            .zip(&self.voltage_v)
+            .zip(&f.voltage_v)
             .take_while(|(p, _)| !crate::flight::rotors_on(**p))
             .map(|(_, v)| *v)
             .collect();
         if rest.is_empty() {
-            let head = self.voltage_v.len().min(5);
+            let head = f.voltage_v.len().min(5);
             if head == 0 {
-                return 1.0;
+                return StartVoltage::Empty;
             }
-            let v = self.voltage_v[..head].iter().sum::<f64>() / head as f64;
-            let i = self.current_a.as_ref().map_or(airborne_current_a, |c| {
-                c[..head].iter().sum::<f64>() / head as f64
-            });
-            return battery.soc_for_ocv((v + i * resistance_ohm) / cells);
+            let v = f.voltage_v[..head].iter().sum::<f64>() / head as f64;
+            let i = f
+                .current_a
+                .as_ref()
+                .map(|c| c[..head].iter().sum::<f64>() / head as f64);
+            return StartVoltage::Airborne(v, i);
         }
-        let v = rest.iter().sum::<f64>() / rest.len() as f64;
-        let i = self.info.idle_power_w() / v.max(1e-3);
-        battery.soc_for_ocv((v + i * resistance_ohm) / cells)
+        StartVoltage::Rest(rest.iter().sum::<f64>() / rest.len() as f64)
+    }
+
+    fn initial_soc(
+        self,
+        f: &FlightRecord,
+        battery: &LearnedBattery,
+        resistance_ohm: f64,
+        airborne_current_a: f64,
+    ) -> f64 {
+        let cells = f64::from(f.info.cells.max(1));
+        match self {
+            StartVoltage::Empty => 1.0,
+            StartVoltage::Airborne(v, i) => {
+                let i = i.unwrap_or(airborne_current_a);
+                battery.soc_for_ocv((v + i * resistance_ohm) / cells)
+            }
+            StartVoltage::Rest(v) => {
+                let i = f.info.idle_power_w() / v.max(1e-3);
+                battery.soc_for_ocv((v + i * resistance_ohm) / cells)
+            }
+        }
+    }
+}
+
+/// What a prediction of a flight needs that does not change with the effect parameters (the
+/// rotor power at the rig, the vertical speed, the ceiling, the start voltage), computed once
+/// per flight and model.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct FlightConsts {
+    rotor_w: f64,
+    vz: Option<Vec<f64>>,
+    ceiling_m: Option<f64>,
+    start: StartVoltage,
+}
+
+impl FlightConsts {
+    /// The constants of `f` under `model`; the vertical speed only when `with_vz`.
+    pub(crate) fn new<C: PowerCurve>(
+        model: &Model<'_, C>,
+        f: &FlightRecord,
+        with_vz: bool,
+    ) -> Self {
+        Self {
+            rotor_w: model.hover_rotor_power_w(f),
+            vz: if with_vz {
+                f.vertical_speed_m_s(2.0)
+            } else {
+                None
+            },
+            ceiling_m: ceiling_height_m(f),
+            start: StartVoltage::of(f),
+        }
     }
 }
