@@ -225,21 +225,52 @@ fn residuals_with(
         n_obs += 1.0;
         e
     });
-    // Voltage.
-    let mut dv = Vec::with_capacity(pred.index.len());
-    let mut by_charge: [Vec<f64>; 3] = Default::default();
-    let mut by_phase: Vec<(Phase, Vec<f64>)> = Vec::new();
+    // Voltage. Running sums, each in sample order from −0.0 as `Iterator::sum` adds (the
+    // same numbers as summing collected residuals, without the allocations).
+    let phase_slot = |p: Phase| Phase::ALL.iter().position(|x| *x == p).unwrap_or(0);
+    let mut dv_n = 0usize;
+    let mut dv_sq = -0.0;
+    let mut dv_chi = -0.0;
+    let mut push_dv = |r: f64| {
+        dv_n += 1;
+        dv_sq += r * r;
+        dv_chi += (r / fl.voltage_v).powi(2);
+    };
+    let mut by_charge = [(-0.0, 0usize); 3];
+    // (phase, sum, count) in the order the phases first appear.
+    let mut by_phase = [(Phase::Ground, -0.0, 0usize); Phase::ALL.len()];
+    let mut by_phase_len = 0;
+    // Per phase of `Phase::ALL`: measured and predicted power sums, count.
+    let mut power_sums = [(-0.0, -0.0, 0usize); Phase::ALL.len()];
+    let cur = f.current_a.as_ref();
     for (k, &i) in pred.index.iter().enumerate() {
         if !window.contains(f, i) {
             continue;
         }
         let r = f.voltage_v[i] - pred.voltage_v[k];
-        dv.push(r);
+        push_dv(r);
         let third = ((1.0 - pred.soc[k]) * 3.0).floor().clamp(0.0, 2.0) as usize;
-        by_charge[third].push(r);
-        match by_phase.iter_mut().find(|(p, _)| *p == f.phase[i]) {
-            Some((_, v)) => v.push(r),
-            None => by_phase.push((f.phase[i], vec![r])),
+        by_charge[third].0 += r;
+        by_charge[third].1 += 1;
+        let phase = f.phase[i];
+        match by_phase[..by_phase_len]
+            .iter_mut()
+            .find(|(p, _, _)| *p == phase)
+        {
+            Some(slot) => {
+                slot.1 += r;
+                slot.2 += 1;
+            }
+            None => {
+                by_phase[by_phase_len] = (phase, r, 1);
+                by_phase_len += 1;
+            }
+        }
+        if let Some(cur) = cur {
+            let slot = &mut power_sums[phase_slot(phase)];
+            slot.0 += f.voltage_v[i] * cur[i];
+            slot.1 += pred.power_w[k];
+            slot.2 += 1;
         }
     }
     // A flight that landed with charge left but that the model empties first: past the
@@ -256,46 +287,40 @@ fn residuals_with(
         let mut i = last + stride.max(1);
         while i < f.time_s.len() {
             if window.contains(f, i) {
-                dv.push(f.voltage_v[i] - f.info.cutoff_voltage_v);
+                push_dv(f.voltage_v[i] - f.info.cutoff_voltage_v);
             }
             i += stride.max(1);
         }
     } else {
         let stride = (f.time_s.len() / opts.points_per_flight.max(1)).max(1);
-        dv.extend(
-            (0..f.time_s.len())
-                .step_by(stride)
-                .filter(|&i| window.contains(f, i))
-                .map(|i| f.voltage_v[i] - f.info.cutoff_voltage_v),
-        );
+        (0..f.time_s.len())
+            .step_by(stride)
+            .filter(|&i| window.contains(f, i))
+            .for_each(|i| push_dv(f.voltage_v[i] - f.info.cutoff_voltage_v));
     }
-    let voltage_rmse_v = mean(&dv.iter().map(|r| r * r).collect::<Vec<_>>()).map_or(0.0, f64::sqrt);
-    if !dv.is_empty() {
-        let m = dv.len() as f64;
-        let s: f64 = dv.iter().map(|r| (r / fl.voltage_v).powi(2)).sum();
-        chi2 += s / m * opts.voltage_obs_per_flight;
+    let voltage_rmse_v = if dv_n > 0 {
+        (dv_sq / dv_n as f64).sqrt()
+    } else {
+        0.0
+    };
+    if dv_n > 0 {
+        let m = dv_n as f64;
+        chi2 += dv_chi / m * opts.voltage_obs_per_flight;
         n_obs += opts.voltage_obs_per_flight;
     }
     // Energy per phase, when current is logged: each phase's energy error (mean power error ×
     // time in the phase) as a share of the flight's measured energy, so that a short, low-power
     // phase whose mean is noisy weighs as little as the energy it holds.
     let mut phase_power = Vec::new();
-    if let Some(cur) = &f.current_a {
-        for (phase, &time) in Phase::ALL.iter().copied().zip(phase_times) {
-            let mut meas = Vec::new();
-            let mut predp = Vec::new();
-            for (k, &i) in pred.index.iter().enumerate() {
-                if f.phase[i] == phase && window.contains(f, i) {
-                    meas.push(f.voltage_v[i] * cur[i]);
-                    predp.push(pred.power_w[k]);
-                }
-            }
-            if meas.len() >= 3 {
-                let (pm, pp) = (mean(&meas).unwrap_or(0.0), mean(&predp).unwrap_or(0.0));
+    if cur.is_some() {
+        for ((phase, &time), &(meas, predp, n)) in
+            Phase::ALL.iter().copied().zip(phase_times).zip(&power_sums)
+        {
+            if n >= 3 {
                 phase_power.push(PhasePower {
                     phase,
-                    measured_w: pm,
-                    predicted_w: pp,
+                    measured_w: meas / n as f64,
+                    predicted_w: predp / n as f64,
                     time_s: time,
                 });
             }
@@ -309,6 +334,7 @@ fn residuals_with(
             }
         }
     }
+    let mean_of = |(sum, n): (f64, usize)| (n > 0).then(|| sum / n as f64);
     FlightResiduals {
         name: f.name.clone(),
         endurance_error,
@@ -318,14 +344,12 @@ fn residuals_with(
         },
         phase_power,
         voltage_rmse_v,
-        voltage_by_charge_v: [
-            mean(&by_charge[0]),
-            mean(&by_charge[1]),
-            mean(&by_charge[2]),
-        ],
-        voltage_by_phase_v: by_phase
-            .into_iter()
-            .filter_map(|(phase, v)| mean(&v).map(|residual_v| PhaseVoltage { phase, residual_v }))
+        voltage_by_charge_v: by_charge.map(mean_of),
+        voltage_by_phase_v: by_phase[..by_phase_len]
+            .iter()
+            .filter_map(|&(phase, sum, n)| {
+                mean_of((sum, n)).map(|residual_v| PhaseVoltage { phase, residual_v })
+            })
             .collect(),
         chi2,
         n_obs,
