@@ -824,6 +824,23 @@ struct Known<'a> {
     mean_ocv_cell_v: f64,
     consts: FlightConsts,
     phase_times_s: [f64; Phase::ALL.len()],
+    /// Residuals already computed, by window and effect parameters (the searches try the same
+    /// parameters on the same flight again and again: a fold of the cross-validation starts
+    /// from the full fit and scans the same grid).
+    memo: std::sync::Mutex<std::collections::HashMap<MemoKey, FlightResiduals>>,
+}
+
+/// A window and the bits of every effect's parameter (in [`Effect::ALL`] order): the
+/// prediction of a flight depends on nothing else.
+type MemoKey = (u8, [u64; Effect::ALL.len()]);
+
+fn memo_key(p: &EffectParams, window: Window) -> MemoKey {
+    let w = match window {
+        Window::All => 0,
+        Window::Early => 1,
+        Window::Late => 2,
+    };
+    (w, Effect::ALL.map(|e| p.get(e).to_bits()))
 }
 
 impl<'a, C: PowerCurve> Evaluator<'a, C> {
@@ -858,6 +875,7 @@ impl<'a, C: PowerCurve> Evaluator<'a, C> {
                 mean_ocv_cell_v,
                 consts: FlightConsts::new(&model, f, true),
                 phase_times_s: phase_times_s(f),
+                memo: std::sync::Mutex::default(),
             });
         }
         Self {
@@ -891,12 +909,32 @@ impl<'a, C: PowerCurve> Evaluator<'a, C> {
         }
     }
 
-    fn residuals_of(&self, f: &FlightRecord, p: &EffectParams, window: Window) -> FlightResiduals {
-        let pred = self.predict(f, p, self.stride(f));
-        match self.known(f) {
-            Some(k) => residuals_with(f, &pred, &self.opts, window, &k.phase_times_s),
-            None => residuals(f, &pred, &self.opts, window),
+    /// `with` applied to the residuals of `f` under `p` over `window`.
+    fn with_residuals<R>(
+        &self,
+        f: &FlightRecord,
+        p: &EffectParams,
+        window: Window,
+        with: impl FnOnce(&FlightResiduals) -> R,
+    ) -> R {
+        let Some(k) = self.known(f) else {
+            let pred = self.predict(f, p, self.stride(f));
+            return with(&residuals(f, &pred, &self.opts, window));
+        };
+        let key = memo_key(p, window);
+        let lock = || {
+            k.memo
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner)
+        };
+        if let Some(r) = lock().get(&key) {
+            return with(r);
         }
+        let pred = self.predict(f, p, self.stride(f));
+        let r = residuals_with(f, &pred, &self.opts, window, &k.phase_times_s);
+        let out = with(&r);
+        lock().insert(key, r);
+        out
     }
 
     /// Residuals of every flight.
@@ -912,7 +950,7 @@ impl<'a, C: PowerCurve> Evaluator<'a, C> {
     ) -> Vec<FlightResiduals> {
         flights
             .iter()
-            .map(|f| self.residuals_of(f, p, window))
+            .map(|f| self.with_residuals(f, p, window, FlightResiduals::clone))
             .collect()
     }
 
@@ -921,9 +959,9 @@ impl<'a, C: PowerCurve> Evaluator<'a, C> {
     }
 
     fn chi2_in(&self, flights: &[&FlightRecord], p: &EffectParams, window: Window) -> f64 {
-        self.residuals_in(flights, p, window)
+        flights
             .iter()
-            .map(|x| x.chi2)
+            .map(|f| self.with_residuals(f, p, window, |r| r.chi2))
             .sum()
     }
 
