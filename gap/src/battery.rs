@@ -479,13 +479,14 @@ pub fn battery_type(f: &FlightRecord) -> String {
     }
 }
 
+#[derive(Debug, Clone, Copy)]
 struct Row {
     soc: f64,
     y: f64,
     /// Current times the temperature factor of the resistances (so the fitted resistances are
     /// at the reference temperature).
     i: f64,
-    x_by_tau: Vec<f64>,
+    x_by_tau: [f64; TAUS_S.len()],
     w: f64,
 }
 
@@ -573,10 +574,60 @@ fn anchor_of(data: &[BatteryData<'_>], b: &LearnedBattery) -> ChargeAnchor {
     }
 }
 
-fn rows_of(data: &[BatteryData<'_>], b: &LearnedBattery) -> (Vec<Row>, ChargeAnchor) {
+/// Per flight, the rows of the fit with the charge drawn up to each, Ah: everything of a row
+/// but its state of charge, which depends on the curve ([`rows_of`] fills it in).
+fn row_seeds(data: &[BatteryData<'_>]) -> Vec<Vec<(f64, Row)>> {
+    data.iter()
+        .map(|d| {
+            let f = d.flight;
+            let n = f.time_s.len();
+            let mut seeds = Vec::new();
+            if n < 2 {
+                return seeds;
+            }
+            let cells = f64::from(f.info.cells.max(1));
+            let (r_temp, _) = crate::lipo::temperature_factors(f.info.ambient_temperature_c);
+            let stride = (n / 300).max(1);
+            let per_sample_w = 40.0 / (n / stride).max(1) as f64;
+            let mut q_ah = 0.0;
+            let mut x = [d.current_a[0]; TAUS_S.len()];
+            for j in 0..n {
+                if j > 0 {
+                    let dt = (f.time_s[j] - f.time_s[j - 1]).max(0.0);
+                    let ia = 0.5 * (d.current_a[j] + d.current_a[j - 1]);
+                    q_ah += ia * dt / 3600.0;
+                    for (xk, tau) in x.iter_mut().zip(TAUS_S) {
+                        let a = (-dt / tau).exp();
+                        *xk = a * *xk + (1.0 - a) * d.current_a[j];
+                    }
+                }
+                if j % stride == 0 && f.voltage_v[j].is_finite() && d.current_a[j].is_finite() {
+                    seeds.push((
+                        q_ah,
+                        Row {
+                            soc: f64::NAN,
+                            y: f.voltage_v[j] / cells,
+                            i: d.current_a[j] * r_temp,
+                            x_by_tau: x.map(|v| v * r_temp),
+                            w: per_sample_w,
+                        },
+                    ));
+                }
+            }
+            seeds
+        })
+        .collect()
+}
+
+/// The rows of the fit on `b`'s curve; `seeds` are [`row_seeds`] of `data`.
+fn rows_of(
+    data: &[BatteryData<'_>],
+    seeds: &[Vec<(f64, Row)>],
+    b: &LearnedBattery,
+) -> (Vec<Row>, ChargeAnchor) {
     let anchor = anchor_of(data, b);
     let mut rows = Vec::new();
-    for d in data {
+    for (d, seeds) in data.iter().zip(seeds) {
         let f = d.flight;
         let n = f.time_s.len();
         if n < 2 {
@@ -598,30 +649,10 @@ fn rows_of(data: &[BatteryData<'_>], b: &LearnedBattery) -> (Vec<Row>, ChargeAnc
         let head = n.min(5);
         let i0 = d.current_a[..head].iter().sum::<f64>() / head as f64;
         let s0 = f.initial_soc(b, cells * b.series_resistance_cell_ohm * r_temp, i0);
-        let stride = (n / 300).max(1);
-        let per_sample_w = 40.0 / (n / stride).max(1) as f64;
-        let mut q_ah = 0.0;
-        let mut x: Vec<f64> = vec![d.current_a[0]; TAUS_S.len()];
-        for j in 0..n {
-            if j > 0 {
-                let dt = (f.time_s[j] - f.time_s[j - 1]).max(0.0);
-                let ia = 0.5 * (d.current_a[j] + d.current_a[j - 1]);
-                q_ah += ia * dt / 3600.0;
-                for (xk, tau) in x.iter_mut().zip(TAUS_S) {
-                    let a = (-dt / tau).exp();
-                    *xk = a * *xk + (1.0 - a) * d.current_a[j];
-                }
-            }
-            if j % stride == 0 && f.voltage_v[j].is_finite() && d.current_a[j].is_finite() {
-                rows.push(Row {
-                    soc: s0 - q_ah / capacity_ah,
-                    y: f.voltage_v[j] / cells,
-                    i: d.current_a[j] * r_temp,
-                    x_by_tau: x.iter().map(|v| v * r_temp).collect(),
-                    w: per_sample_w,
-                });
-            }
-        }
+        rows.extend(seeds.iter().map(|(q_ah, r)| Row {
+            soc: s0 - q_ah / capacity_ah,
+            ..*r
+        }));
     }
     (rows, anchor)
 }
@@ -638,6 +669,7 @@ fn hat(soc: f64) -> (usize, f64) {
 fn fit_once(
     rows: &[Row],
     prior: &LearnedBattery,
+    prior_ocv: &[f64],
     tau: Option<usize>,
     learn_shape: bool,
     prior_sigma_v: f64,
@@ -653,32 +685,38 @@ fn fit_once(
         let mut ata = vec![0.0; m * m];
         let mut atb = vec![0.0; m];
         let sigma_v = 0.01;
-        for r in rows {
-            let mut a = vec![0.0; m];
+        for (r, ocv) in rows.iter().zip(prior_ocv) {
+            // The row's non-zero entries, by column: two knots (or the offset), r0, r1. (The
+            // zero entries would add zeros: they change no sum.)
+            let mut a = [(0usize, 0.0); 4];
+            let mut len = 0;
+            let mut put = |col: usize, v: f64| {
+                if v != 0.0 {
+                    a[len] = (col, v);
+                    len += 1;
+                }
+            };
             if learn_shape {
                 let (i, t) = hat(r.soc);
-                a[i] = 1.0 - t;
-                a[i + 1] = t;
+                put(i, 1.0 - t);
+                put(i + 1, t);
             } else {
-                a[0] = 1.0;
+                put(0, 1.0);
             }
             let mut c = nk;
             if free_r0 {
-                a[c] = -r.i;
+                put(c, -r.i);
                 c += 1;
             }
             if free_r1 {
-                a[c] = -tau.map_or(0.0, |t| r.x_by_tau[t]);
+                put(c, -tau.map_or(0.0, |t| r.x_by_tau[t]));
             }
-            let y = r.y - prior.ocv_cell_v(r.soc);
+            let y = r.y - ocv;
             let w = r.w / (sigma_v * sigma_v);
-            for p in 0..m {
-                if a[p] == 0.0 {
-                    continue;
-                }
-                atb[p] += w * a[p] * y;
-                for q in 0..m {
-                    ata[p * m + q] += w * a[p] * a[q];
+            for &(p, ap) in &a[..len] {
+                atb[p] += w * ap * y;
+                for &(q, aq) in &a[..len] {
+                    ata[p * m + q] += w * ap * aq;
                 }
             }
         }
@@ -819,13 +857,15 @@ pub fn fit_battery(
     } else {
         CurrentSource::PowerModel
     };
+    let seeds = row_seeds(data);
     let mut best: Option<(BatteryFit, f64)> = None;
     for (chem, prior) in priors {
         // Rounds: the state of charge depends on the curve (start and capacity).
         let mut start = prior;
         let mut result = None;
         for _ in 0..2 {
-            let (rows, anchor) = rows_of(data, &start);
+            let (rows, anchor) = rows_of(data, &seeds, &start);
+            let prior_ocv: Vec<f64> = rows.iter().map(|r| prior.ocv_cell_v(r.soc)).collect();
             let lo = rows.iter().map(|r| r.soc).fold(f64::INFINITY, f64::min);
             let hi = rows.iter().map(|r| r.soc).fold(f64::NEG_INFINITY, f64::max);
             let span = (hi - lo).max(0.0);
@@ -837,7 +877,9 @@ pub fn fit_battery(
                 && span >= MIN_SOC_SPAN;
             let mut round: Option<(LearnedBattery, f64, f64)> = None;
             for tau in std::iter::once(None).chain((0..TAUS_S.len()).map(Some)) {
-                if let Some(c) = fit_once(&rows, &prior, tau, learn_shape, prior_sigma_v) {
+                if let Some(c) =
+                    fit_once(&rows, &prior, &prior_ocv, tau, learn_shape, prior_sigma_v)
+                {
                     if round.as_ref().is_none_or(|r| c.1 < r.1) {
                         round = Some(c);
                     }

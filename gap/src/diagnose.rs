@@ -14,7 +14,7 @@ use crate::battery::{
     BatteryData, BatteryFit, Chemistry, CurrentSource, LearnedBattery, battery_type, fit_battery,
 };
 use crate::flight::{FlightRecord, Phase};
-use crate::model::{Effect, EffectParams, Model, Prediction};
+use crate::model::{Effect, EffectParams, FlightConsts, Model, Prediction};
 use crate::stats::{golden_min, mean, pearson};
 
 /// Noise floors: how closely the model can be expected to follow a flight even when nothing is
@@ -191,6 +191,30 @@ pub fn residuals(
     opts: &DiagnoseOptions,
     window: Window,
 ) -> FlightResiduals {
+    residuals_with(f, pred, opts, window, &phase_times_s(f))
+}
+
+/// Time a flight spends in each phase of [`Phase::ALL`], s: the sum of the sample intervals
+/// that start in it.
+fn phase_times_s(f: &FlightRecord) -> [f64; Phase::ALL.len()] {
+    Phase::ALL.map(|phase| {
+        f.phase
+            .iter()
+            .zip(f.time_s.windows(2))
+            .filter(|(p, _)| **p == phase)
+            .map(|(_, w)| w[1] - w[0])
+            .sum()
+    })
+}
+
+/// [`residuals`] with the flight's [`phase_times_s`] computed once.
+fn residuals_with(
+    f: &FlightRecord,
+    pred: &Prediction,
+    opts: &DiagnoseOptions,
+    window: Window,
+    phase_times: &[f64; Phase::ALL.len()],
+) -> FlightResiduals {
     let fl = &opts.floors;
     let measured_s = f.duration_s();
     let mut chi2 = 0.0;
@@ -201,21 +225,52 @@ pub fn residuals(
         n_obs += 1.0;
         e
     });
-    // Voltage.
-    let mut dv = Vec::with_capacity(pred.index.len());
-    let mut by_charge: [Vec<f64>; 3] = Default::default();
-    let mut by_phase: Vec<(Phase, Vec<f64>)> = Vec::new();
+    // Voltage. Running sums, each in sample order from −0.0 as `Iterator::sum` adds (the
+    // same numbers as summing collected residuals, without the allocations).
+    let phase_slot = |p: Phase| Phase::ALL.iter().position(|x| *x == p).unwrap_or(0);
+    let mut dv_n = 0usize;
+    let mut dv_sq = -0.0;
+    let mut dv_chi = -0.0;
+    let mut push_dv = |r: f64| {
+        dv_n += 1;
+        dv_sq += r * r;
+        dv_chi += (r / fl.voltage_v).powi(2);
+    };
+    let mut by_charge = [(-0.0, 0usize); 3];
+    // (phase, sum, count) in the order the phases first appear.
+    let mut by_phase = [(Phase::Ground, -0.0, 0usize); Phase::ALL.len()];
+    let mut by_phase_len = 0;
+    // Per phase of `Phase::ALL`: measured and predicted power sums, count.
+    let mut power_sums = [(-0.0, -0.0, 0usize); Phase::ALL.len()];
+    let cur = f.current_a.as_ref();
     for (k, &i) in pred.index.iter().enumerate() {
         if !window.contains(f, i) {
             continue;
         }
         let r = f.voltage_v[i] - pred.voltage_v[k];
-        dv.push(r);
+        push_dv(r);
         let third = ((1.0 - pred.soc[k]) * 3.0).floor().clamp(0.0, 2.0) as usize;
-        by_charge[third].push(r);
-        match by_phase.iter_mut().find(|(p, _)| *p == f.phase[i]) {
-            Some((_, v)) => v.push(r),
-            None => by_phase.push((f.phase[i], vec![r])),
+        by_charge[third].0 += r;
+        by_charge[third].1 += 1;
+        let phase = f.phase[i];
+        match by_phase[..by_phase_len]
+            .iter_mut()
+            .find(|(p, _, _)| *p == phase)
+        {
+            Some(slot) => {
+                slot.1 += r;
+                slot.2 += 1;
+            }
+            None => {
+                by_phase[by_phase_len] = (phase, r, 1);
+                by_phase_len += 1;
+            }
+        }
+        if let Some(cur) = cur {
+            let slot = &mut power_sums[phase_slot(phase)];
+            slot.0 += f.voltage_v[i] * cur[i];
+            slot.1 += pred.power_w[k];
+            slot.2 += 1;
         }
     }
     // A flight that landed with charge left but that the model empties first: past the
@@ -232,53 +287,40 @@ pub fn residuals(
         let mut i = last + stride.max(1);
         while i < f.time_s.len() {
             if window.contains(f, i) {
-                dv.push(f.voltage_v[i] - f.info.cutoff_voltage_v);
+                push_dv(f.voltage_v[i] - f.info.cutoff_voltage_v);
             }
             i += stride.max(1);
         }
     } else {
         let stride = (f.time_s.len() / opts.points_per_flight.max(1)).max(1);
-        dv.extend(
-            (0..f.time_s.len())
-                .step_by(stride)
-                .filter(|&i| window.contains(f, i))
-                .map(|i| f.voltage_v[i] - f.info.cutoff_voltage_v),
-        );
+        (0..f.time_s.len())
+            .step_by(stride)
+            .filter(|&i| window.contains(f, i))
+            .for_each(|i| push_dv(f.voltage_v[i] - f.info.cutoff_voltage_v));
     }
-    let voltage_rmse_v = mean(&dv.iter().map(|r| r * r).collect::<Vec<_>>()).map_or(0.0, f64::sqrt);
-    if !dv.is_empty() {
-        let m = dv.len() as f64;
-        let s: f64 = dv.iter().map(|r| (r / fl.voltage_v).powi(2)).sum();
-        chi2 += s / m * opts.voltage_obs_per_flight;
+    let voltage_rmse_v = if dv_n > 0 {
+        (dv_sq / dv_n as f64).sqrt()
+    } else {
+        0.0
+    };
+    if dv_n > 0 {
+        let m = dv_n as f64;
+        chi2 += dv_chi / m * opts.voltage_obs_per_flight;
         n_obs += opts.voltage_obs_per_flight;
     }
     // Energy per phase, when current is logged: each phase's energy error (mean power error ×
     // time in the phase) as a share of the flight's measured energy, so that a short, low-power
     // phase whose mean is noisy weighs as little as the energy it holds.
     let mut phase_power = Vec::new();
-    if let Some(cur) = &f.current_a {
-        for phase in Phase::ALL {
-            let mut meas = Vec::new();
-            let mut predp = Vec::new();
-            for (k, &i) in pred.index.iter().enumerate() {
-                if f.phase[i] == phase && window.contains(f, i) {
-                    meas.push(f.voltage_v[i] * cur[i]);
-                    predp.push(pred.power_w[k]);
-                }
-            }
-            if meas.len() >= 3 {
-                let (pm, pp) = (mean(&meas).unwrap_or(0.0), mean(&predp).unwrap_or(0.0));
-                let time = f
-                    .phase
-                    .iter()
-                    .zip(f.time_s.windows(2))
-                    .filter(|(p, _)| **p == phase)
-                    .map(|(_, w)| w[1] - w[0])
-                    .sum();
+    if cur.is_some() {
+        for ((phase, &time), &(meas, predp, n)) in
+            Phase::ALL.iter().copied().zip(phase_times).zip(&power_sums)
+        {
+            if n >= 3 {
                 phase_power.push(PhasePower {
                     phase,
-                    measured_w: pm,
-                    predicted_w: pp,
+                    measured_w: meas / n as f64,
+                    predicted_w: predp / n as f64,
                     time_s: time,
                 });
             }
@@ -292,6 +334,7 @@ pub fn residuals(
             }
         }
     }
+    let mean_of = |(sum, n): (f64, usize)| (n > 0).then(|| sum / n as f64);
     FlightResiduals {
         name: f.name.clone(),
         endurance_error,
@@ -301,14 +344,12 @@ pub fn residuals(
         },
         phase_power,
         voltage_rmse_v,
-        voltage_by_charge_v: [
-            mean(&by_charge[0]),
-            mean(&by_charge[1]),
-            mean(&by_charge[2]),
-        ],
-        voltage_by_phase_v: by_phase
-            .into_iter()
-            .filter_map(|(phase, v)| mean(&v).map(|residual_v| PhaseVoltage { phase, residual_v }))
+        voltage_by_charge_v: by_charge.map(mean_of),
+        voltage_by_phase_v: by_phase[..by_phase_len]
+            .iter()
+            .filter_map(|&(phase, sum, n)| {
+                mean_of((sum, n)).map(|residual_v| PhaseVoltage { phase, residual_v })
+            })
             .collect(),
         chi2,
         n_obs,
@@ -770,16 +811,85 @@ pub struct Evaluator<'a, C> {
     model: Model<'a, C>,
     batteries: &'a BatterySet,
     opts: DiagnoseOptions,
+    /// What does not change with the effect parameters, per flight given to
+    /// [`Self::with_flights`] (other flights have it computed at every call).
+    known: Vec<Known<'a>>,
+}
+
+/// A flight's battery and the parts of its prediction and residuals that do not depend on the
+/// effect parameters.
+struct Known<'a> {
+    flight: &'a FlightRecord,
+    battery: &'a LearnedBattery,
+    mean_ocv_cell_v: f64,
+    consts: FlightConsts,
+    phase_times_s: [f64; Phase::ALL.len()],
+    /// Residuals already computed, by window and effect parameters (the searches try the same
+    /// parameters on the same flight again and again: a fold of the cross-validation starts
+    /// from the full fit and scans the same grid).
+    memo: std::sync::Mutex<std::collections::HashMap<MemoKey, FlightResiduals>>,
+}
+
+/// A window and the bits of every effect's parameter (in [`Effect::ALL`] order): the
+/// prediction of a flight depends on nothing else.
+type MemoKey = (u8, [u64; Effect::ALL.len()]);
+
+fn memo_key(p: &EffectParams, window: Window) -> MemoKey {
+    let w = match window {
+        Window::All => 0,
+        Window::Early => 1,
+        Window::Late => 2,
+    };
+    (w, Effect::ALL.map(|e| p.get(e).to_bits()))
 }
 
 impl<'a, C: PowerCurve> Evaluator<'a, C> {
     /// An evaluator of `model` with `batteries`.
     pub fn new(model: Model<'a, C>, batteries: &'a BatterySet, opts: &DiagnoseOptions) -> Self {
+        Self::with_flights(model, batteries, opts, &[])
+    }
+
+    /// An evaluator that prepares `flights` once (their battery and whatever of their
+    /// prediction does not depend on the effect parameters): the same results as
+    /// [`Self::new`], faster on those flights.
+    pub fn with_flights(
+        model: Model<'a, C>,
+        batteries: &'a BatterySet,
+        opts: &DiagnoseOptions,
+        flights: &[&'a FlightRecord],
+    ) -> Self {
+        let mut known: Vec<Known<'a>> = Vec::with_capacity(flights.len());
+        for &f in flights {
+            if known.iter().any(|k| std::ptr::eq(k.flight, f)) {
+                continue;
+            }
+            let battery = batteries.for_flight(f);
+            // One battery is shared by many flights: its mean is the same number each time.
+            let mean_ocv_cell_v = known
+                .iter()
+                .find(|k| std::ptr::eq(k.battery, battery))
+                .map_or_else(|| battery.mean_ocv_cell_v(), |k| k.mean_ocv_cell_v);
+            known.push(Known {
+                flight: f,
+                battery,
+                mean_ocv_cell_v,
+                consts: FlightConsts::new(&model, f, true),
+                phase_times_s: phase_times_s(f),
+                memo: std::sync::Mutex::default(),
+            });
+        }
         Self {
             model,
             batteries,
             opts: *opts,
+            known,
         }
+    }
+
+    fn known(&self, f: &FlightRecord) -> Option<&Known<'a>> {
+        // The known flights are borrowed for 'a: the same address is the same, unchanged
+        // flight.
+        self.known.iter().find(|k| std::ptr::eq(k.flight, f))
     }
 
     fn stride(&self, f: &FlightRecord) -> usize {
@@ -788,8 +898,43 @@ impl<'a, C: PowerCurve> Evaluator<'a, C> {
 
     /// The prediction for one flight.
     pub fn predict(&self, f: &FlightRecord, p: &EffectParams, stride: usize) -> Prediction {
-        self.model
-            .predict(f, self.batteries.for_flight(f), p, stride)
+        match self.known(f) {
+            Some(k) => {
+                self.model
+                    .predict_with(f, k.battery, k.mean_ocv_cell_v, &k.consts, p, stride)
+            }
+            None => self
+                .model
+                .predict(f, self.batteries.for_flight(f), p, stride),
+        }
+    }
+
+    /// `with` applied to the residuals of `f` under `p` over `window`.
+    fn with_residuals<R>(
+        &self,
+        f: &FlightRecord,
+        p: &EffectParams,
+        window: Window,
+        with: impl FnOnce(&FlightResiduals) -> R,
+    ) -> R {
+        let Some(k) = self.known(f) else {
+            let pred = self.predict(f, p, self.stride(f));
+            return with(&residuals(f, &pred, &self.opts, window));
+        };
+        let key = memo_key(p, window);
+        let lock = || {
+            k.memo
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner)
+        };
+        if let Some(r) = lock().get(&key) {
+            return with(r);
+        }
+        let pred = self.predict(f, p, self.stride(f));
+        let r = residuals_with(f, &pred, &self.opts, window, &k.phase_times_s);
+        let out = with(&r);
+        lock().insert(key, r);
+        out
     }
 
     /// Residuals of every flight.
@@ -805,7 +950,7 @@ impl<'a, C: PowerCurve> Evaluator<'a, C> {
     ) -> Vec<FlightResiduals> {
         flights
             .iter()
-            .map(|f| residuals(f, &self.predict(f, p, self.stride(f)), &self.opts, window))
+            .map(|f| self.with_residuals(f, p, window, FlightResiduals::clone))
             .collect()
     }
 
@@ -814,9 +959,9 @@ impl<'a, C: PowerCurve> Evaluator<'a, C> {
     }
 
     fn chi2_in(&self, flights: &[&FlightRecord], p: &EffectParams, window: Window) -> f64 {
-        self.residuals_in(flights, p, window)
+        flights
             .iter()
-            .map(|x| x.chi2)
+            .map(|f| self.with_residuals(f, p, window, |r| r.chi2))
             .sum()
     }
 
@@ -1406,7 +1551,8 @@ pub fn diagnose_with<C: PowerCurve>(
     if heldout.is_empty() {
         return Err(GapError::NoFlights("held-out"));
     }
-    let ev = Evaluator::new(model, batteries, opts);
+    let all: Vec<&FlightRecord> = train.iter().chain(heldout).copied().collect();
+    let ev = Evaluator::with_flights(model, batteries, opts, &all);
     let base = EffectParams::baseline();
     let base_train = ev.residuals(train, &base);
     let base_held = ev.residuals(heldout, &base);
@@ -1417,7 +1563,6 @@ pub fn diagnose_with<C: PowerCurve>(
     let th = opts.thresholds;
     let within_noise = baseline.training.chi2_per_obs <= th.none_chi2_per_obs;
 
-    let all: Vec<&FlightRecord> = train.iter().chain(heldout).copied().collect();
     let all_res: Vec<FlightResiduals> = base_train.iter().chain(&base_held).cloned().collect();
     let r#where = localise(&all, &all_res);
 

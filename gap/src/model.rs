@@ -234,42 +234,8 @@ impl<C: PowerCurve> Model<'_, C> {
         } else {
             None
         };
-        (0..f.time_s.len())
-            .map(|i| self.power_at(f, p, i, rotor_w, vz.as_deref(), ceiling))
-            .collect()
-    }
-
-    /// Battery power the model draws at sample `i` of `f`, W.
-    fn power_at(
-        &self,
-        f: &FlightRecord,
-        p: &EffectParams,
-        i: usize,
-        rotor_w: f64,
-        vz: Option<&[f64]>,
-        ceiling: Option<f64>,
-    ) -> f64 {
-        let idle = f.info.idle_power_w();
-        match f.phase[i] {
-            Phase::Ground => f.info.avionics_power_w + f.info.payload_power_w,
-            Phase::Attached => idle + p.get(Effect::AttachedPower),
-            _ => {
-                let mut rotor = rotor_w * (1.0 + p.get(Effect::ControlOverhead));
-                if let Some(rho) = f.info.air_density_kg_m3 {
-                    rotor *= (RIG_AIR_DENSITY_KG_M3 / rho).powf(p.get(Effect::AirDensity));
-                }
-                if let (Some(h), Some(z)) = (ceiling, f.altitude_m.as_ref()) {
-                    let gap = (h - z[i]).max(0.0);
-                    rotor *= 1.0 - p.get(Effect::CeilingEffect) * (-gap / CEILING_DECAY_M).exp();
-                }
-                let mut w = rotor + idle;
-                if let Some(vz) = vz {
-                    let climb = vz[i].max(0.0);
-                    w += f.info.total_mass_kg() * G * climb * p.get(Effect::ClimbPower);
-                }
-                w
-            }
-        }
+        let terms = PowerTerms::new(f, p, rotor_w, vz.as_deref(), ceiling);
+        (0..f.time_s.len()).map(|i| terms.at(f, i)).collect()
     }
 
     /// Runs the battery through the flight's phases and predicts voltage, current, state of
@@ -284,12 +250,27 @@ impl<C: PowerCurve> Model<'_, C> {
         p: &EffectParams,
         stride: usize,
     ) -> Prediction {
+        let consts = FlightConsts::new(self, f, p.get(Effect::ClimbPower) != 0.0);
+        self.predict_with(f, battery, battery.mean_ocv_cell_v(), &consts, p, stride)
+    }
+
+    /// [`Self::predict`] with what does not change with `p` computed once: `mean_ocv_cell_v`
+    /// is `battery.mean_ocv_cell_v()`, `consts` the flight's [`FlightConsts`] under this model.
+    pub(crate) fn predict_with(
+        &self,
+        f: &FlightRecord,
+        battery: &LearnedBattery,
+        mean_ocv_cell_v: f64,
+        consts: &FlightConsts,
+        p: &EffectParams,
+        stride: usize,
+    ) -> Prediction {
         let cells = f64::from(f.info.cells.max(1));
         let fade = p.get(Effect::CapacityFade);
         // The pack's nominal behaviour with temperature is part of the baseline.
         let (r_temp, c_temp) = crate::lipo::temperature_factors(f.info.ambient_temperature_c);
         let capacity_ah =
-            f.info.battery_energy_wh / (cells * battery.mean_ocv_cell_v()) * c_temp * (1.0 - fade);
+            f.info.battery_energy_wh / (cells * mean_ocv_cell_v) * c_temp * (1.0 - fade);
         let r1 = cells * battery.rc_resistance_cell_ohm * r_temp;
         let tau = battery.rc_time_constant_s;
         let r = cells * battery.series_resistance_cell_ohm.max(0.0) * r_temp
@@ -297,26 +278,25 @@ impl<C: PowerCurve> Model<'_, C> {
         let r = r.max(0.0);
         let peukert = p.get(Effect::Peukert);
         let one_c_a = capacity_ah.max(1e-9);
-        let rotor_w = self.hover_rotor_power_w(f);
+        let rotor_w = consts.rotor_w;
         let vz = if p.get(Effect::ClimbPower) != 0.0 {
-            f.vertical_speed_m_s(2.0)
+            consts.vz.as_deref()
         } else {
             None
         };
         let ceiling = if p.get(Effect::CeilingEffect) != 0.0 {
-            ceiling_height_m(f)
+            consts.ceiling_m
         } else {
             None
         };
         let stride = stride.max(1);
         let n = f.time_s.len();
+        let terms = PowerTerms::new(f, p, rotor_w, vz, ceiling);
         let airborne_a = match f.voltage_v.first() {
-            Some(v) if !f.time_s.is_empty() => {
-                self.power_at(f, p, 0, rotor_w, vz.as_deref(), ceiling) / v.max(1e-3)
-            }
+            Some(v) if !f.time_s.is_empty() => terms.at(f, 0) / v.max(1e-3),
             _ => 0.0,
         };
-        let mut soc = f.initial_soc(battery, r, airborne_a);
+        let mut soc = consts.initial_soc(f, battery, r, airborne_a);
         let mut v1 = 0.0;
         let mut out = Prediction {
             index: Vec::with_capacity(n / stride + 2),
@@ -333,9 +313,18 @@ impl<C: PowerCurve> Model<'_, C> {
             let i = current_for_power(e, r, w)?;
             Some((i, e - i * r))
         };
-        let relax = |v1: f64, i: f64, dt: f64| {
+        // The decay over the last step length (steps mostly repeat their length).
+        let mut decay: Option<(f64, f64)> = None;
+        let mut relax = |v1: f64, i: f64, dt: f64| {
             if r1 > 0.0 && tau > 0.0 {
-                let a = (-dt / tau).exp();
+                let a = match decay {
+                    Some((d, a)) if d.to_bits() == dt.to_bits() => a,
+                    _ => {
+                        let a = (-dt / tau).exp();
+                        decay = Some((dt, a));
+                        a
+                    }
+                };
                 a * v1 + (1.0 - a) * i * r1
             } else {
                 0.0
@@ -353,7 +342,7 @@ impl<C: PowerCurve> Model<'_, C> {
         let mut k = 0;
         while k < n {
             let next = (k + stride).min(n);
-            let w = self.power_at(f, p, k, rotor_w, vz.as_deref(), ceiling);
+            let w = terms.at(f, k);
             let st = state(w, soc, v1);
             let (i, v) = match st {
                 Some(s) if s.1 >= cutoff && soc > 0.0 => s,
@@ -382,7 +371,7 @@ impl<C: PowerCurve> Model<'_, C> {
         if out.endurance_s.is_nan() {
             // The log ended first: continue its last phase until the cut-off.
             let last = n.saturating_sub(1);
-            let w = self.power_at(f, p, last, rotor_w, vz.as_deref(), ceiling);
+            let w = terms.at(f, last);
             let mut t = f.time_s[last] - f.time_s[0];
             let dt = 1.0;
             let limit = t + 48.0 * 3600.0;
@@ -430,27 +419,194 @@ impl FlightRecord {
         resistance_ohm: f64,
         airborne_current_a: f64,
     ) -> f64 {
-        let cells = f64::from(self.info.cells.max(1));
-        let rest: Vec<f64> = self
+        StartVoltage::of(self).initial_soc(self, resistance_ohm, airborne_current_a, |ocv| {
+            battery.soc_for_ocv(ocv)
+        })
+    }
+}
+
+/// The voltage a log starts at, as [`FlightRecord::initial_soc`] reads it: the mean of the
+/// samples before the rotors start, else the mean voltage (and logged current) of the first
+/// samples.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum StartVoltage {
+    /// Resting before the rotors start: mean voltage, V.
+    Rest(f64),
+    /// Airborne from the first sample: mean voltage, V, and mean logged current, A.
+    Airborne(f64, Option<f64>),
+    /// No samples.
+    Empty,
+}
+
+impl StartVoltage {
+    fn of(f: &FlightRecord) -> Self {
+        let rest: Vec<f64> = f
             .phase
             .iter()
-            .zip(&self.voltage_v)
+            .zip(&f.voltage_v)
             .take_while(|(p, _)| !crate::flight::rotors_on(**p))
             .map(|(_, v)| *v)
             .collect();
         if rest.is_empty() {
-            let head = self.voltage_v.len().min(5);
+            let head = f.voltage_v.len().min(5);
             if head == 0 {
-                return 1.0;
+                return StartVoltage::Empty;
             }
-            let v = self.voltage_v[..head].iter().sum::<f64>() / head as f64;
-            let i = self.current_a.as_ref().map_or(airborne_current_a, |c| {
-                c[..head].iter().sum::<f64>() / head as f64
-            });
-            return battery.soc_for_ocv((v + i * resistance_ohm) / cells);
+            let v = f.voltage_v[..head].iter().sum::<f64>() / head as f64;
+            let i = f
+                .current_a
+                .as_ref()
+                .map(|c| c[..head].iter().sum::<f64>() / head as f64);
+            return StartVoltage::Airborne(v, i);
         }
-        let v = rest.iter().sum::<f64>() / rest.len() as f64;
-        let i = self.info.idle_power_w() / v.max(1e-3);
-        battery.soc_for_ocv((v + i * resistance_ohm) / cells)
+        StartVoltage::Rest(rest.iter().sum::<f64>() / rest.len() as f64)
+    }
+
+    /// The state of charge at the start; `soc_for_ocv` inverts the battery's curve (an
+    /// open-circuit voltage per cell).
+    fn initial_soc(
+        self,
+        f: &FlightRecord,
+        resistance_ohm: f64,
+        airborne_current_a: f64,
+        soc_for_ocv: impl FnOnce(f64) -> f64,
+    ) -> f64 {
+        let cells = f64::from(f.info.cells.max(1));
+        match self {
+            StartVoltage::Empty => 1.0,
+            StartVoltage::Airborne(v, i) => {
+                let i = i.unwrap_or(airborne_current_a);
+                soc_for_ocv((v + i * resistance_ohm) / cells)
+            }
+            StartVoltage::Rest(v) => {
+                let i = f.info.idle_power_w() / v.max(1e-3);
+                soc_for_ocv((v + i * resistance_ohm) / cells)
+            }
+        }
+    }
+}
+
+/// The parts of the battery power at a sample that do not change from sample to sample.
+struct PowerTerms<'f> {
+    /// On the ground: avionics and payload, W.
+    ground_w: f64,
+    /// Perched: idle power plus the effect `attached_power`, W.
+    attached_w: f64,
+    /// Rotor power before the ceiling: the rig's with overhead and air density, W.
+    rotor_w: f64,
+    /// Idle power, W.
+    idle_w: f64,
+    /// Ceiling height, altitudes and the saving at contact.
+    ceiling: Option<(f64, &'f [f64], f64)>,
+    /// Vertical speeds, weight (N) and the inverse climb efficiency.
+    climb: Option<(&'f [f64], f64, f64)>,
+}
+
+impl<'f> PowerTerms<'f> {
+    fn new(
+        f: &'f FlightRecord,
+        p: &EffectParams,
+        rotor_w: f64,
+        vz: Option<&'f [f64]>,
+        ceiling: Option<f64>,
+    ) -> Self {
+        let idle = f.info.idle_power_w();
+        let mut rotor = rotor_w * (1.0 + p.get(Effect::ControlOverhead));
+        if let Some(rho) = f.info.air_density_kg_m3 {
+            rotor *= (RIG_AIR_DENSITY_KG_M3 / rho).powf(p.get(Effect::AirDensity));
+        }
+        Self {
+            ground_w: f.info.avionics_power_w + f.info.payload_power_w,
+            attached_w: idle + p.get(Effect::AttachedPower),
+            rotor_w: rotor,
+            idle_w: idle,
+            ceiling: match (ceiling, f.altitude_m.as_deref()) {
+                (Some(h), Some(z)) => Some((h, z, p.get(Effect::CeilingEffect))),
+                _ => None,
+            },
+            climb: vz.map(|vz| (vz, f.info.total_mass_kg() * G, p.get(Effect::ClimbPower))),
+        }
+    }
+
+    /// Battery power the model draws at sample `i` of `f`, W.
+    fn at(&self, f: &FlightRecord, i: usize) -> f64 {
+        match f.phase[i] {
+            Phase::Ground => self.ground_w,
+            Phase::Attached => self.attached_w,
+            _ => {
+                let mut rotor = self.rotor_w;
+                if let Some((h, z, saving)) = self.ceiling {
+                    let gap = (h - z[i]).max(0.0);
+                    rotor *= 1.0 - saving * (-gap / CEILING_DECAY_M).exp();
+                }
+                let mut w = rotor + self.idle_w;
+                if let Some((vz, weight_n, inverse_efficiency)) = self.climb {
+                    let climb = vz[i].max(0.0);
+                    w += weight_n * climb * inverse_efficiency;
+                }
+                w
+            }
+        }
+    }
+}
+
+/// What a prediction of a flight needs that does not change with the effect parameters (the
+/// rotor power at the rig, the vertical speed, the ceiling, the start voltage), computed once
+/// per flight and model.
+#[derive(Debug)]
+pub(crate) struct FlightConsts {
+    rotor_w: f64,
+    vz: Option<Vec<f64>>,
+    ceiling_m: Option<f64>,
+    start: StartVoltage,
+    /// The last open-circuit voltage per cell inverted to a state of charge at the start, and
+    /// the result: most evaluations start the flight from the same voltage. (The battery of a
+    /// flight is the same at every prediction made with these constants.)
+    start_soc: std::sync::Mutex<Option<(u64, f64)>>,
+}
+
+impl FlightConsts {
+    /// The constants of `f` under `model`; the vertical speed only when `with_vz`.
+    pub(crate) fn new<C: PowerCurve>(
+        model: &Model<'_, C>,
+        f: &FlightRecord,
+        with_vz: bool,
+    ) -> Self {
+        Self {
+            rotor_w: model.hover_rotor_power_w(f),
+            vz: if with_vz {
+                f.vertical_speed_m_s(2.0)
+            } else {
+                None
+            },
+            ceiling_m: ceiling_height_m(f),
+            start: StartVoltage::of(f),
+            start_soc: std::sync::Mutex::new(None),
+        }
+    }
+
+    /// [`FlightRecord::initial_soc`] of `f` (whose constants these are) on `battery`.
+    fn initial_soc(
+        &self,
+        f: &FlightRecord,
+        battery: &LearnedBattery,
+        resistance_ohm: f64,
+        airborne_current_a: f64,
+    ) -> f64 {
+        self.start
+            .initial_soc(f, resistance_ohm, airborne_current_a, |ocv| {
+                let mut memo = self
+                    .start_soc
+                    .lock()
+                    .unwrap_or_else(std::sync::PoisonError::into_inner);
+                match *memo {
+                    Some((x, soc)) if x == ocv.to_bits() => soc,
+                    _ => {
+                        let soc = battery.soc_for_ocv(ocv);
+                        *memo = Some((ocv.to_bits(), soc));
+                        soc
+                    }
+                }
+            })
     }
 }
