@@ -26,11 +26,6 @@
 //!   cell are tried (full-charge voltages fall in two levels, LiFePO₄ near 3.6 V and the
 //!   cobalt/nickel chemistries at 4.2–4.35 V; the level of a full pack's resting voltage is the
 //!   plainest signature of its chemistry) and the one fitting best is kept.
-//!   The state of charge depends on the curve, so the fit runs twice, the second time counted
-//!   on the first fit's curve; the second round is kept only if it counts no more of the
-//!   flights past an empty pack (by 5 % of the charge) than the first did, give or take 8 % of
-//!   the samples: a round that does has diverged, and its curve collapses (flat knots, the
-//!   discharge absorbed by a slow RC pair).
 //! - **Chemistry priors** ([`Chemistry`]) are built from measured electrode potentials copied
 //!   from PyBaMM (`gap/data/pybamm/`, BSD-3-Clause): LiPo and LiHV (LiCoO₂/graphite, Ai 2020),
 //!   Li-ion NMC (LG M50, Chen 2020) and NCA (Kim 2011); LiFePO₄ from the published closed form
@@ -515,22 +510,6 @@ const MAX_SOC_AT_CUTOFF: f64 = 0.15;
 /// families worse.)
 const PRIOR_FULL_MATCH_CELL_V: f64 = 0.3;
 
-/// How far below empty a row's counted state of charge may fall and still count as at the
-/// empty end rather than past it (the cut-off leaves a little, the count drifts a little).
-const PAST_EMPTY_SOC: f64 = -0.05;
-
-/// Most the share of rows counted past empty ([`PAST_EMPTY_SOC`]) may grow from the first
-/// round of the fit to the second before the second round is taken as diverged and the first
-/// kept. Chosen on the tuning families (seeds 0–39): 0.02 and 0.05 made held-out predictions
-/// of 2 of 40 runs worse (rounds that grew by 0.06 and were better), 0.08 none.
-const MAX_PAST_EMPTY_GROWTH: f64 = 0.08;
-
-/// The share of `rows` whose counted state of charge lies past empty ([`PAST_EMPTY_SOC`]).
-fn past_empty_fraction(rows: &[Row]) -> f64 {
-    let n = rows.iter().filter(|r| r.soc < PAST_EMPTY_SOC).count();
-    n as f64 / rows.len().max(1) as f64
-}
-
 /// What the charge counted over the flights says about a battery type's usable capacity.
 #[derive(Debug, Clone, Copy, PartialEq)]
 struct ChargeAnchor {
@@ -884,18 +863,8 @@ pub fn fit_battery(
         // Rounds: the state of charge depends on the curve (start and capacity).
         let mut start = prior;
         let mut result = None;
-        let mut first_past_empty = None;
         for _ in 0..2 {
             let (rows, anchor) = rows_of(data, &seeds, &start);
-            // A refinement that counts more of the flights past an empty pack than the first
-            // round did has diverged (the first round's curve read the start fuller or emptier
-            // than the flights drew): the first round's battery is kept.
-            let past_empty = past_empty_fraction(&rows);
-            match first_past_empty {
-                Some(f) if past_empty > f + MAX_PAST_EMPTY_GROWTH => break,
-                Some(_) => {}
-                None => first_past_empty = Some(past_empty),
-            }
             let prior_ocv: Vec<f64> = rows.iter().map(|r| prior.ocv_cell_v(r.soc)).collect();
             let lo = rows.iter().map(|r| r.soc).fold(f64::INFINITY, f64::min);
             let hi = rows.iter().map(|r| r.soc).fold(f64::NEG_INFINITY, f64::max);
