@@ -81,6 +81,18 @@ fn fitted_power(fit: &Value, thrust_g: f64) -> f64 {
         .fold(0.0, |acc, c| acc * thrust_g + c.as_f64().unwrap())
 }
 
+/// `hoverbench fit` of a characterise session's sweep and limit logs, as JSON.
+fn fit_session(session: &Path) -> Value {
+    serde_json::from_str(&ok(&[
+        "fit",
+        session.join("sweep.csv").to_str().unwrap(),
+        "--limit",
+        session.join("limit.csv").to_str().unwrap(),
+        "--json",
+    ]))
+    .unwrap()
+}
+
 fn wait_for(what: &str, timeout: Duration, mut f: impl FnMut() -> bool) {
     let end = Instant::now() + timeout;
     while !f() {
@@ -150,14 +162,7 @@ fn characterise_on_the_simulated_bench_lands_on_the_paper_optima() {
     assert!((rm - 0.169).abs() <= 0.005, "realistic m_B {rm}");
     assert!((rt / 15.28 - 1.0).abs() <= 0.01, "realistic t_E {rt}");
     // The session's logs are what `hoverbench fit` reads.
-    let fit: Value = serde_json::from_str(&ok(&[
-        "fit",
-        session.join("sweep.csv").to_str().unwrap(),
-        "--limit",
-        session.join("limit.csv").to_str().unwrap(),
-        "--json",
-    ]))
-    .unwrap();
+    let fit = fit_session(&session);
     assert_eq!(fit["log_kind"], "hoverbench sweep");
     let m_l = fit["thrust_limit"]["total_kg"].as_f64().unwrap();
     assert!((m_l - 0.600).abs() <= 0.005, "m_L {m_l}");
@@ -240,14 +245,7 @@ fn characterise_with_the_physical_paper_preset() {
     let platform = std::fs::read_to_string(session.join("platform.toml")).unwrap();
     assert!(platform.contains("structure_mass_kg = 0.431"), "{platform}");
     assert!(!platform.contains("battery_mass_kg"), "{platform}");
-    let fit: Value = serde_json::from_str(&ok(&[
-        "fit",
-        session.join("sweep.csv").to_str().unwrap(),
-        "--limit",
-        session.join("limit.csv").to_str().unwrap(),
-        "--json",
-    ]))
-    .unwrap();
+    let fit = fit_session(&session);
     // 260 g at 12.6 V gives ≈ 260·(9/12.6)² = 133 g at 9.0 V for a low-resistance motor.
     let per_rotor = fit["thrust_limit"]["total_kg"].as_f64().unwrap() * 250.0;
     assert!((130.0..=140.0).contains(&per_rotor), "limit {per_rotor} g");

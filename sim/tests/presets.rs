@@ -12,6 +12,19 @@ fn unit(p: &sim::Preset) -> Propulsion {
     Propulsion::new(p.motor, p.prop, p.esc)
 }
 
+/// The thrust at full throttle on a supply of `voltage_v` (the preset's supply otherwise).
+fn max_thrust_g(p: &sim::Preset, voltage_v: f64) -> f64 {
+    unit(p)
+        .steady_state(
+            2000.0,
+            Supply {
+                voltage_v,
+                ..p.supply
+            },
+        )
+        .thrust_g
+}
+
 /// Steady state at a given thrust (bisection on throttle).
 fn at_thrust(u: &Propulsion, supply: Supply, thrust_g: f64) -> sim::physics::SteadyState {
     let (mut lo, mut hi) = (1000.0, 2000.0);
@@ -54,17 +67,7 @@ fn paper_power_curve_follows_the_reconstruction() {
 #[test]
 fn paper_thrust_limits_follow_the_supply_voltage() {
     let p = presets::paper();
-    let u = unit(&p);
-    let max = |v: f64| {
-        u.steady_state(
-            2000.0,
-            Supply {
-                voltage_v: v,
-                ..p.supply
-            },
-        )
-        .thrust_g
-    };
+    let max = |v: f64| max_thrust_g(&p, v);
     let (t9, t125, t126) = (max(9.0), max(12.5), max(12.6));
     println!(
         "paper preset: max thrust {t9:.2} g at 9.0 V, {t125:.2} g at 12.5 V, {t126:.2} g at 12.6 V"
@@ -218,16 +221,7 @@ fn paper_physical_preset_is_physical_and_meets_the_stated_limit() {
     assert_eq!(p.motor.iron_drag_nm_s, 0.0);
     assert_eq!((p.esc.efficiency, p.esc.max_duty), (0.95, 1.0));
     let u = unit(&p);
-    let max = |v: f64| {
-        u.steady_state(
-            2000.0,
-            Supply {
-                voltage_v: v,
-                ..p.supply
-            },
-        )
-        .thrust_g
-    };
+    let max = |v: f64| max_thrust_g(&p, v);
     let (t9, t126) = (max(9.0), max(12.6));
     println!("paper-physical: max thrust {t9:.1} g at 9.0 V, {t126:.1} g at 12.6 V");
     // The paper's ~260 g at 12.6 V (the 0.01 Ω leads take 0.03 V).
