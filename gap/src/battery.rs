@@ -9,7 +9,11 @@
 //! - **State of charge by charge counting**: from the logged current or, without current (the
 //!   Crazyflie), from the current the power model draws at the measured voltage (`I = P / V`),
 //!   over the rated capacity (`battery_energy_wh` over the cells and the curve's mean voltage);
-//!   the start from the first samples' voltage.
+//!   the start from the first samples' voltage. A pack cannot give more charge than it held: when
+//!   a flight with logged current, counted from that start, runs more than
+//!   [`MAX_COUNT_PAST_EMPTY`] of the charge past empty (a start read on a flat stretch of a
+//!   learned curve), its start is taken from the count instead ([`consistent_start`]), and a
+//!   second round whose own curve still reads such a start keeps the first round's curve.
 //! - **The usable capacity** is reported beside it ([`BatteryFit::usable_capacity_ah`],
 //!   [`BatteryFit::capacity_lost_fraction`]): the charge a full pack (resting within 30 mV per
 //!   cell of the type's highest resting voltage) gave until the cut-off, over the share of the
@@ -635,27 +639,9 @@ fn rows_of(
     let anchor = anchor_of(data, b);
     let mut rows = Vec::new();
     for (d, seeds) in data.iter().zip(seeds) {
-        let f = d.flight;
-        let n = f.time_s.len();
-        if n < 2 {
+        let Some((s0, capacity_ah)) = start_of(d, b) else {
             continue;
-        }
-        let cells = f64::from(f.info.cells.max(1));
-        // The pack's behaviour with temperature is the baseline's, as in the prediction.
-        let (r_temp, c_temp) = crate::lipo::temperature_factors(f.info.ambient_temperature_c);
-        // State of charge is counted over the rated capacity, from the start the prediction
-        // reads (rest voltage, or the first samples with their sag). Counting it over the
-        // usable capacity instead (so that the curve cannot swallow a lost capacity) made 9 of
-        // 36 held-out predictions of the blind study worse (seeds 0-39): the usable capacity is
-        // only reported ([`BatteryFit::usable_capacity_ah`]) until the cut-offs that are not
-        // an empty pack (a thrust limit, a noisy last sample) are told apart.
-        let capacity_ah = f.info.battery_energy_wh / (cells * b.mean_ocv_cell_v()) * c_temp;
-        if !(capacity_ah.is_finite() && capacity_ah > 0.0) {
-            continue;
-        }
-        let head = n.min(5);
-        let i0 = d.current_a[..head].iter().sum::<f64>() / head as f64;
-        let s0 = f.initial_soc(b, cells * b.series_resistance_cell_ohm * r_temp, i0);
+        };
         let (s0, capacity_ah) = consistent_start(s0, charge_drawn_ah(d), capacity_ah, d.source);
         rows.extend(seeds.iter().map(|(q_ah, r)| Row {
             soc: s0 - q_ah / capacity_ah,
@@ -663,6 +649,43 @@ fn rows_of(
         }));
     }
     (rows, anchor)
+}
+
+/// A flight's start of charge as the voltage reads it on `b` and the rated capacity on `b`,
+/// Ah (`None` for a log too short or a capacity that is not a number).
+fn start_of(d: &BatteryData<'_>, b: &LearnedBattery) -> Option<(f64, f64)> {
+    let f = d.flight;
+    let n = f.time_s.len();
+    if n < 2 {
+        return None;
+    }
+    let cells = f64::from(f.info.cells.max(1));
+    // The pack's behaviour with temperature is the baseline's, as in the prediction.
+    let (r_temp, c_temp) = crate::lipo::temperature_factors(f.info.ambient_temperature_c);
+    // State of charge is counted over the rated capacity, from the start the prediction
+    // reads (rest voltage, or the first samples with their sag). Counting it over the
+    // usable capacity instead (so that the curve cannot swallow a lost capacity) made 9 of
+    // 36 held-out predictions of the blind study worse (seeds 0-39): the usable capacity is
+    // only reported ([`BatteryFit::usable_capacity_ah`]) until the cut-offs that are not
+    // an empty pack (a thrust limit, a noisy last sample) are told apart.
+    let capacity_ah = f.info.battery_energy_wh / (cells * b.mean_ocv_cell_v()) * c_temp;
+    if !(capacity_ah.is_finite() && capacity_ah > 0.0) {
+        return None;
+    }
+    let head = n.min(5);
+    let i0 = d.current_a[..head].iter().sum::<f64>() / head as f64;
+    let s0 = f.initial_soc(b, cells * b.series_resistance_cell_ohm * r_temp, i0);
+    Some((s0, capacity_ah))
+}
+
+/// Whether some flight with logged current, counted from the start the voltage reads on `b`,
+/// runs more than [`MAX_COUNT_PAST_EMPTY`] past empty.
+fn counts_past_empty(data: &[BatteryData<'_>], b: &LearnedBattery) -> bool {
+    data.iter().any(|d| {
+        d.source == CurrentSource::Logged
+            && start_of(d, b)
+                .is_some_and(|(s0, c)| s0 - charge_drawn_ah(d) / c < -MAX_COUNT_PAST_EMPTY)
+    })
 }
 
 /// Most of the rated charge a flight's count may run past empty before its start is taken from
@@ -684,16 +707,9 @@ pub const MAX_COUNT_PAST_EMPTY: f64 = 0.3;
 /// the capacity (the flight ends at empty), and when that is more than a full pack, the count is
 /// scaled to end there (its current or the rating is off by that much). Without logged current
 /// the charge is the power model's, not a measurement, and the voltage's reading stands.
-fn consistent_start(
-    s0: f64,
-    q_ah: f64,
-    capacity_ah: f64,
-    source: CurrentSource,
-) -> (f64, f64) {
+fn consistent_start(s0: f64, q_ah: f64, capacity_ah: f64, source: CurrentSource) -> (f64, f64) {
     let drawn = q_ah / capacity_ah;
-    if source != CurrentSource::Logged
-        || !drawn.is_finite()
-        || s0 - drawn >= -MAX_COUNT_PAST_EMPTY
+    if source != CurrentSource::Logged || !drawn.is_finite() || s0 - drawn >= -MAX_COUNT_PAST_EMPTY
     {
         return (s0, capacity_ah);
     }
@@ -910,7 +926,11 @@ pub fn fit_battery(
         // Rounds: the state of charge depends on the curve (start and capacity).
         let mut start = prior;
         let mut result = None;
-        for _ in 0..2 {
+        let mut first = None;
+        for round_no in 0..2 {
+            if round_no == 1 {
+                first = result.clone();
+            }
             let (rows, anchor) = rows_of(data, &seeds, &start);
             let prior_ocv: Vec<f64> = rows.iter().map(|r| prior.ocv_cell_v(r.soc)).collect();
             let lo = rows.iter().map(|r| r.soc).fold(f64::INFINITY, f64::min);
@@ -980,6 +1000,17 @@ pub fn fit_battery(
                 obj,
             ));
             start = b;
+        }
+        // The second round's curve must place the flights' starts where their counts allow: a
+        // curve on which the voltage still reads a start that the count runs far past empty
+        // would start held-out flights there too (their start is read from the voltage). The
+        // first round's curve, counted on the chemistry's own shape, is kept then.
+        if first.is_some()
+            && result
+                .as_ref()
+                .is_some_and(|r: &(BatteryFit, f64)| counts_past_empty(data, &r.0.battery))
+        {
+            result = first;
         }
         if let Some((fit, obj)) = result {
             if best.as_ref().is_none_or(|b| obj < b.1) {
@@ -1094,7 +1125,12 @@ mod tests {
         let voltage_v: Vec<f64> = (0..n)
             .map(|j| {
                 let fr = j.saturating_sub(20) as f64 / flying as f64;
-                cells * if j < 20 { rest_cell_v } else { rest_cell_v - 0.1 - 0.6 * fr }
+                cells
+                    * if j < 20 {
+                        rest_cell_v
+                    } else {
+                        rest_cell_v - 0.1 - 0.6 * fr
+                    }
             })
             .collect();
         let f = FlightRecord {
@@ -1180,7 +1216,10 @@ mod tests {
         let (rows, _) = rows_of(&data, &row_seeds(&data), &b);
         let lowest = rows.iter().map(|r| r.soc).fold(f64::INFINITY, f64::min);
         let highest = rows.iter().map(|r| r.soc).fold(f64::NEG_INFINITY, f64::max);
-        assert!(lowest.abs() < 0.01 && (highest - 1.0).abs() < 1e-9, "{lowest}..{highest}");
+        assert!(
+            lowest.abs() < 0.01 && (highest - 1.0).abs() < 1e-9,
+            "{lowest}..{highest}"
+        );
     }
 
     #[test]
