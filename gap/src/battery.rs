@@ -9,11 +9,7 @@
 //! - **State of charge by charge counting**: from the logged current or, without current (the
 //!   Crazyflie), from the current the power model draws at the measured voltage (`I = P / V`),
 //!   over the rated capacity (`battery_energy_wh` over the cells and the curve's mean voltage);
-//!   the start from the first samples' voltage. A pack cannot give more charge than it held: when
-//!   a flight with logged current, counted from that start, runs more than
-//!   [`MAX_COUNT_PAST_EMPTY`] of the charge past empty (a start read on a flat stretch of a
-//!   learned curve), its start is taken from the count instead ([`consistent_start`]), and a
-//!   second round whose own curve still reads such a start keeps the first round's curve.
+//!   the start from the first samples' voltage.
 //! - **The usable capacity** is reported beside it ([`BatteryFit::usable_capacity_ah`],
 //!   [`BatteryFit::capacity_lost_fraction`]): the charge a full pack (resting within 30 mV per
 //!   cell of the type's highest resting voltage) gave until the cut-off, over the share of the
@@ -529,7 +525,11 @@ fn charge_of(d: &BatteryData<'_>, b: &LearnedBattery) -> (f64, f64, Option<f64>)
     let f = d.flight;
     let n = f.time_s.len();
     let cells = f64::from(f.info.cells.max(1));
-    let q_ah = charge_drawn_ah(d);
+    let mut q_ah = 0.0;
+    for j in 1..n {
+        let dt = (f.time_s[j] - f.time_s[j - 1]).max(0.0);
+        q_ah += 0.5 * (d.current_a[j] + d.current_a[j - 1]) * dt / 3600.0;
+    }
     let rest: Vec<f64> = f
         .phase
         .iter()
@@ -554,17 +554,6 @@ fn charge_of(d: &BatteryData<'_>, b: &LearnedBattery) -> (f64, f64, Option<f64>)
             .min(MAX_SOC_AT_CUTOFF)
     });
     (q_ah, v_rest, s_end)
-}
-
-/// The charge a flight drew over its whole log, Ah (trapezoidal count of its current).
-fn charge_drawn_ah(d: &BatteryData<'_>) -> f64 {
-    let f = d.flight;
-    let mut q_ah = 0.0;
-    for j in 1..f.time_s.len() {
-        let dt = (f.time_s[j] - f.time_s[j - 1]).max(0.0);
-        q_ah += 0.5 * (d.current_a[j] + d.current_a[j - 1]) * dt / 3600.0;
-    }
-    q_ah
 }
 
 /// The usable capacity of a battery type: the median, over flights that started from a full
@@ -639,85 +628,33 @@ fn rows_of(
     let anchor = anchor_of(data, b);
     let mut rows = Vec::new();
     for (d, seeds) in data.iter().zip(seeds) {
-        let Some((s0, capacity_ah)) = start_of(d, b) else {
+        let f = d.flight;
+        let n = f.time_s.len();
+        if n < 2 {
             continue;
-        };
-        let (s0, capacity_ah) = consistent_start(s0, charge_drawn_ah(d), capacity_ah, d.source);
+        }
+        let cells = f64::from(f.info.cells.max(1));
+        // The pack's behaviour with temperature is the baseline's, as in the prediction.
+        let (r_temp, c_temp) = crate::lipo::temperature_factors(f.info.ambient_temperature_c);
+        // State of charge is counted over the rated capacity, from the start the prediction
+        // reads (rest voltage, or the first samples with their sag). Counting it over the
+        // usable capacity instead (so that the curve cannot swallow a lost capacity) made 9 of
+        // 36 held-out predictions of the blind study worse (seeds 0-39): the usable capacity is
+        // only reported ([`BatteryFit::usable_capacity_ah`]) until the cut-offs that are not
+        // an empty pack (a thrust limit, a noisy last sample) are told apart.
+        let capacity_ah = f.info.battery_energy_wh / (cells * b.mean_ocv_cell_v()) * c_temp;
+        if !(capacity_ah.is_finite() && capacity_ah > 0.0) {
+            continue;
+        }
+        let head = n.min(5);
+        let i0 = d.current_a[..head].iter().sum::<f64>() / head as f64;
+        let s0 = f.initial_soc(b, cells * b.series_resistance_cell_ohm * r_temp, i0);
         rows.extend(seeds.iter().map(|(q_ah, r)| Row {
             soc: s0 - q_ah / capacity_ah,
             ..*r
         }));
     }
     (rows, anchor)
-}
-
-/// A flight's start of charge as the voltage reads it on `b` and the rated capacity on `b`,
-/// Ah (`None` for a log too short or a capacity that is not a number).
-fn start_of(d: &BatteryData<'_>, b: &LearnedBattery) -> Option<(f64, f64)> {
-    let f = d.flight;
-    let n = f.time_s.len();
-    if n < 2 {
-        return None;
-    }
-    let cells = f64::from(f.info.cells.max(1));
-    // The pack's behaviour with temperature is the baseline's, as in the prediction.
-    let (r_temp, c_temp) = crate::lipo::temperature_factors(f.info.ambient_temperature_c);
-    // State of charge is counted over the rated capacity, from the start the prediction
-    // reads (rest voltage, or the first samples with their sag). Counting it over the
-    // usable capacity instead (so that the curve cannot swallow a lost capacity) made 9 of
-    // 36 held-out predictions of the blind study worse (seeds 0-39): the usable capacity is
-    // only reported ([`BatteryFit::usable_capacity_ah`]) until the cut-offs that are not
-    // an empty pack (a thrust limit, a noisy last sample) are told apart.
-    let capacity_ah = f.info.battery_energy_wh / (cells * b.mean_ocv_cell_v()) * c_temp;
-    if !(capacity_ah.is_finite() && capacity_ah > 0.0) {
-        return None;
-    }
-    let head = n.min(5);
-    let i0 = d.current_a[..head].iter().sum::<f64>() / head as f64;
-    let s0 = f.initial_soc(b, cells * b.series_resistance_cell_ohm * r_temp, i0);
-    Some((s0, capacity_ah))
-}
-
-/// Whether some flight with logged current, counted from the start the voltage reads on `b`,
-/// runs more than [`MAX_COUNT_PAST_EMPTY`] past empty.
-fn counts_past_empty(data: &[BatteryData<'_>], b: &LearnedBattery) -> bool {
-    data.iter().any(|d| {
-        d.source == CurrentSource::Logged
-            && start_of(d, b)
-                .is_some_and(|(s0, c)| s0 - charge_drawn_ah(d) / c < -MAX_COUNT_PAST_EMPTY)
-    })
-}
-
-/// Most of the rated charge a flight's count may run past empty before its start is taken from
-/// the count instead of the voltage ([`consistent_start`]): a pack cannot give more charge than
-/// it held, so beyond the errors of the count (a current sensor's scale, a pack's capacity
-/// against its rating: each up to about a tenth) the start read from the voltage is wrong.
-pub const MAX_COUNT_PAST_EMPTY: f64 = 0.3;
-
-/// The start of a flight's state-of-charge count and the capacity it is counted over, made
-/// consistent with the charge the flight drew (`q_ah`, logged current only).
-///
-/// The start `s0` is read from the first samples' voltage on a curve. On a learned curve with a
-/// flat stretch (the isotonic fit of a pack whose flights' voltages disagree, e.g. through
-/// sensor scale errors) that reading can fall far below the truth: on tuning seed 39 a pack
-/// resting at 4.16 V per cell read 0.35 on the first round's curve, and the count then put its
-/// last half past empty; those rows piled onto the lowest knots and the curve collapsed. A flight
-/// cannot have drawn more charge than it started with, so when the count runs more than
-/// [`MAX_COUNT_PAST_EMPTY`] past empty the start is taken from the count: the charge drawn over
-/// the capacity (the flight ends at empty), and when that is more than a full pack, the count is
-/// scaled to end there (its current or the rating is off by that much). Without logged current
-/// the charge is the power model's, not a measurement, and the voltage's reading stands.
-fn consistent_start(s0: f64, q_ah: f64, capacity_ah: f64, source: CurrentSource) -> (f64, f64) {
-    let drawn = q_ah / capacity_ah;
-    if source != CurrentSource::Logged || !drawn.is_finite() || s0 - drawn >= -MAX_COUNT_PAST_EMPTY
-    {
-        return (s0, capacity_ah);
-    }
-    if drawn > 1.0 {
-        (1.0, q_ah)
-    } else {
-        (s0.max(drawn), capacity_ah)
-    }
 }
 
 fn hat(soc: f64) -> (usize, f64) {
@@ -926,11 +863,7 @@ pub fn fit_battery(
         // Rounds: the state of charge depends on the curve (start and capacity).
         let mut start = prior;
         let mut result = None;
-        let mut first = None;
-        for round_no in 0..2 {
-            if round_no == 1 {
-                first = result.clone();
-            }
+        for _ in 0..2 {
             let (rows, anchor) = rows_of(data, &seeds, &start);
             let prior_ocv: Vec<f64> = rows.iter().map(|r| prior.ocv_cell_v(r.soc)).collect();
             let lo = rows.iter().map(|r| r.soc).fold(f64::INFINITY, f64::min);
@@ -1000,17 +933,6 @@ pub fn fit_battery(
                 obj,
             ));
             start = b;
-        }
-        // The second round's curve must place the flights' starts where their counts allow: a
-        // curve on which the voltage still reads a start that the count runs far past empty
-        // would start held-out flights there too (their start is read from the voltage). The
-        // first round's curve, counted on the chemistry's own shape, is kept then.
-        if first.is_some()
-            && result
-                .as_ref()
-                .is_some_and(|r: &(BatteryFit, f64)| counts_past_empty(data, &r.0.battery))
-        {
-            result = first;
         }
         if let Some((fit, obj)) = result {
             if best.as_ref().is_none_or(|b| obj < b.1) {
@@ -1103,153 +1025,6 @@ mod tests {
         let lipo = LearnedBattery::lipo();
         assert!(rise(&b) < 0.5 * rise(&lipo), "{:?}", b.ocv_cell_v);
         assert!(b.ocv_cell_v(0.0) < 3.0, "{:?}", b.ocv_cell_v);
-    }
-
-    /// A 4S, 40 Wh pack resting at `rest_cell_v` for 20 s, then drawing 10 A at 1 Hz until it
-    /// has drawn `drawn` of the rated capacity on `b` (the last sample at the cut-off).
-    fn flight_to_cutoff(
-        b: &LearnedBattery,
-        rest_cell_v: f64,
-        drawn: f64,
-        logged: bool,
-    ) -> (FlightRecord, Vec<f64>, CurrentSource) {
-        use crate::flight::{FlightInfo, Phase};
-        let cells = 4.0;
-        let capacity_ah = 40.0 / (cells * b.mean_ocv_cell_v());
-        let flying = (drawn * capacity_ah * 3600.0 / 10.0).round() as usize;
-        let n = 20 + flying;
-        let phase: Vec<Phase> = (0..n)
-            .map(|j| if j < 20 { Phase::Ground } else { Phase::Hover })
-            .collect();
-        let current_a: Vec<f64> = (0..n).map(|j| if j < 20 { 0.0 } else { 10.0 }).collect();
-        let voltage_v: Vec<f64> = (0..n)
-            .map(|j| {
-                let fr = j.saturating_sub(20) as f64 / flying as f64;
-                cells
-                    * if j < 20 {
-                        rest_cell_v
-                    } else {
-                        rest_cell_v - 0.1 - 0.6 * fr
-                    }
-            })
-            .collect();
-        let f = FlightRecord {
-            name: "to-cutoff".into(),
-            time_s: (0..n).map(|j| j as f64).collect(),
-            voltage_v,
-            current_a: logged.then(|| current_a.clone()),
-            phase,
-            altitude_m: None,
-            info: FlightInfo {
-                structure_mass_kg: 1.0,
-                battery_mass_kg: 0.3,
-                battery_energy_wh: 40.0,
-                cells: 4,
-                payload_mass_kg: 0.0,
-                payload_power_w: 0.0,
-                avionics_power_w: 0.0,
-                battery_id: None,
-                battery_cycles: None,
-                ambient_temperature_c: None,
-                air_density_kg_m3: None,
-                cutoff_voltage_v: cells * (rest_cell_v - 0.7),
-                ended_at_cutoff: true,
-                ceiling_height_m: None,
-                measured_ocv: None,
-            },
-        };
-        let source = if logged {
-            CurrentSource::Logged
-        } else {
-            CurrentSource::PowerModel
-        };
-        (f, current_a, source)
-    }
-
-    /// A curve flat over most of its charge, as a first round's isotonic fit leaves it when a
-    /// pack's flights disagree in voltage (tuning seed 39's pack nmc-B): 4.245 V from 0.45 up.
-    fn collapsed() -> LearnedBattery {
-        let mut b = LearnedBattery::lipo();
-        for (k, v) in b.ocv_cell_v.iter_mut().enumerate() {
-            let s = k as f64 / (OCV_KNOTS - 1) as f64;
-            *v = if s < 0.45 { 3.6 + 1.4 * s } else { 4.245 };
-        }
-        b.ocv_cell_v = strictly_increasing(b.ocv_cell_v);
-        b
-    }
-
-    #[test]
-    fn no_flight_with_logged_current_is_counted_far_past_empty() {
-        // Resting at 4.16 V per cell, the flat curve reads a start near 0.4; the flight then drew
-        // 90 % of the rated charge to its cut-off. Counted from the voltage's start it would end
-        // half a pack past empty.
-        let b = collapsed();
-        let (f, i, source) = flight_to_cutoff(&b, 4.16, 0.9, true);
-        let s_voltage = f.initial_soc(&b, 0.0, 0.0);
-        assert!(s_voltage < 0.5, "the flat curve reads {s_voltage}");
-        let data = [BatteryData {
-            flight: &f,
-            current_a: i,
-            source,
-        }];
-        let (rows, _) = rows_of(&data, &row_seeds(&data), &b);
-        let lowest = rows.iter().map(|r| r.soc).fold(f64::INFINITY, f64::min);
-        assert!(
-            lowest >= -MAX_COUNT_PAST_EMPTY,
-            "a flight counted {lowest} past empty"
-        );
-        // Taken from the count, the flight ends at empty and starts with what it drew.
-        assert!(lowest.abs() < 0.01, "{lowest}");
-        let highest = rows.iter().map(|r| r.soc).fold(f64::NEG_INFINITY, f64::max);
-        assert!((highest - 0.9).abs() < 0.01, "{highest}");
-    }
-
-    #[test]
-    fn a_count_beyond_a_full_pack_is_scaled_to_end_at_empty() {
-        let b = collapsed();
-        let (f, i, source) = flight_to_cutoff(&b, 4.16, 1.2, true);
-        let data = [BatteryData {
-            flight: &f,
-            current_a: i,
-            source,
-        }];
-        let (rows, _) = rows_of(&data, &row_seeds(&data), &b);
-        let lowest = rows.iter().map(|r| r.soc).fold(f64::INFINITY, f64::min);
-        let highest = rows.iter().map(|r| r.soc).fold(f64::NEG_INFINITY, f64::max);
-        assert!(
-            lowest.abs() < 0.01 && (highest - 1.0).abs() < 1e-9,
-            "{lowest}..{highest}"
-        );
-    }
-
-    #[test]
-    fn the_voltage_start_stands_when_the_count_agrees_or_is_the_power_models() {
-        // On the LiPo prior the same flight reads nearly full: the count ends above empty and
-        // the rows are the voltage's.
-        let b = LearnedBattery::lipo();
-        let (f, i, source) = flight_to_cutoff(&b, 4.16, 0.9, true);
-        let s0 = f.initial_soc(&b, 0.0, 0.0);
-        let data = [BatteryData {
-            flight: &f,
-            current_a: i.clone(),
-            source,
-        }];
-        let (rows, _) = rows_of(&data, &row_seeds(&data), &b);
-        let highest = rows.iter().map(|r| r.soc).fold(f64::NEG_INFINITY, f64::max);
-        assert!((highest - s0).abs() < 1e-12, "{highest} against {s0}");
-        // Without logged current the charge is the power model's: no measurement to overrule
-        // the voltage with.
-        let flat = collapsed();
-        let (f, _, source) = flight_to_cutoff(&flat, 4.16, 0.9, false);
-        let s0 = f.initial_soc(&flat, 0.0, 0.0);
-        let data = [BatteryData {
-            flight: &f,
-            current_a: i,
-            source,
-        }];
-        let (rows, _) = rows_of(&data, &row_seeds(&data), &flat);
-        let highest = rows.iter().map(|r| r.soc).fold(f64::NEG_INFINITY, f64::max);
-        assert!((highest - s0).abs() < 1e-12, "{highest} against {s0}");
     }
 
     #[test]
