@@ -495,6 +495,8 @@ struct Row {
     i: f64,
     x_by_tau: [f64; TAUS_S.len()],
     w: f64,
+    /// Which flight of the battery type the row is from (its voltage-sensor offset's column).
+    flight: usize,
 }
 
 /// Time constants tried for the RC pair, s.
@@ -581,7 +583,8 @@ fn anchor_of(data: &[BatteryData<'_>], b: &LearnedBattery) -> ChargeAnchor {
 /// but its state of charge, which depends on the curve ([`rows_of`] fills it in).
 fn row_seeds(data: &[BatteryData<'_>]) -> Vec<Vec<(f64, Row)>> {
     data.iter()
-        .map(|d| {
+        .enumerate()
+        .map(|(flight, d)| {
             let f = d.flight;
             let n = f.time_s.len();
             let mut seeds = Vec::new();
@@ -613,6 +616,7 @@ fn row_seeds(data: &[BatteryData<'_>]) -> Vec<Vec<(f64, Row)>> {
                             i: d.current_a[j] * r_temp,
                             x_by_tau: x.map(|v| v * r_temp),
                             w: per_sample_w,
+                            flight,
                         },
                     ));
                 }
@@ -623,15 +627,18 @@ fn row_seeds(data: &[BatteryData<'_>]) -> Vec<Vec<(f64, Row)>> {
 }
 
 /// The rows of the fit on `b`'s curve; `seeds` are [`row_seeds`] of `data`.
+/// `offsets`: each flight's voltage-sensor offset per cell, V (empty: none), through which its
+/// start is read.
 fn rows_of(
     data: &[BatteryData<'_>],
     seeds: &[Vec<(f64, Row)>],
     b: &LearnedBattery,
+    offsets: &[f64],
 ) -> (Vec<Row>, ChargeAnchor) {
     let anchor = anchor_of(data, b);
     let mut rows = Vec::new();
-    for (d, seeds) in data.iter().zip(seeds) {
-        let Some((s0, capacity_ah)) = start_of(d, b) else {
+    for (k, (d, seeds)) in data.iter().zip(seeds).enumerate() {
+        let Some((s0, capacity_ah)) = start_of(d, b, offsets.get(k).copied().unwrap_or(0.0)) else {
             continue;
         };
         rows.extend(seeds.iter().map(|(q_ah, r)| Row {
@@ -642,9 +649,11 @@ fn rows_of(
     (rows, anchor)
 }
 
-/// A flight's start of charge as the voltage reads it on `b`, and the rated capacity on `b`, Ah
-/// (`None` for a log too short or a capacity that is not a number).
-fn start_of(d: &BatteryData<'_>, b: &LearnedBattery) -> Option<(f64, f64)> {
+/// A flight's start of charge as the voltage reads it on `b`, through the flight's
+/// voltage-sensor offset per cell `offset_cell_v` (its logged voltage minus the offset), and
+/// the rated capacity on `b`, Ah (`None` for a log too short or a capacity that is not a
+/// number).
+fn start_of(d: &BatteryData<'_>, b: &LearnedBattery, offset_cell_v: f64) -> Option<(f64, f64)> {
     let f = d.flight;
     let n = f.time_s.len();
     if n < 2 {
@@ -665,7 +674,12 @@ fn start_of(d: &BatteryData<'_>, b: &LearnedBattery) -> Option<(f64, f64)> {
     }
     let head = n.min(5);
     let i0 = d.current_a[..head].iter().sum::<f64>() / head as f64;
-    let s0 = f.initial_soc(b, cells * b.series_resistance_cell_ohm * r_temp, i0);
+    let s0 = f.initial_soc_through_offset(
+        b,
+        cells * b.series_resistance_cell_ohm * r_temp,
+        i0,
+        offset_cell_v,
+    );
     Some((s0, capacity_ah))
 }
 
@@ -681,13 +695,16 @@ pub const MAX_COUNT_PAST_EMPTY: f64 = 0.3;
 /// more than [`MAX_COUNT_PAST_EMPTY`] of the rated charge past empty: their start sits on a
 /// flat stretch of `b` (or their count is far off), and a curve learned from them piles their
 /// last samples onto its lowest knots.
-fn counted_past_empty(data: &[BatteryData<'_>], b: &LearnedBattery) -> usize {
+fn counted_past_empty(data: &[BatteryData<'_>], b: &LearnedBattery, offsets: &[f64]) -> usize {
     data.iter()
-        .filter(|d| {
+        .enumerate()
+        .filter(|(k, d)| {
             d.source == CurrentSource::Logged
-                && start_of(d, b).is_some_and(|(s0, capacity_ah)| {
-                    s0 - charge_drawn_ah(d) / capacity_ah < -MAX_COUNT_PAST_EMPTY
-                })
+                && start_of(d, b, offsets.get(*k).copied().unwrap_or(0.0)).is_some_and(
+                    |(s0, capacity_ah)| {
+                        s0 - charge_drawn_ah(d) / capacity_ah < -MAX_COUNT_PAST_EMPTY
+                    },
+                )
         })
         .count()
 }
@@ -710,8 +727,20 @@ fn hat(soc: f64) -> (usize, f64) {
     (i, x - i as f64)
 }
 
+/// Prior σ of a flight's voltage-sensor offset, V per cell: a flight controller or blackbox
+/// reads the pack through a resistor divider into an ADC; 1 % divider resistors and a ~1 %
+/// ADC reference/gain error add to about 1 % of a full cell's 4.2 V, ≈ 0.04 V per cell
+/// (sensor physics, not the study: not tuned).
+pub const FLIGHT_OFFSET_SIGMA_CELL_V: f64 = 0.04;
+
+/// A fit's result: the battery, the penalised objective, the voltage residual's RMS (V per
+/// cell) and each flight's voltage-sensor offset per cell (empty when not learned).
+type Fitted = (LearnedBattery, f64, f64, Vec<f64>);
+
 /// One regularised fit for a prior and a time constant (`None`: no RC pair). Returns the
-/// battery and the penalised objective.
+/// battery and the penalised objective. With `flights` ≥ 2, one additive voltage offset per
+/// flight (per cell, zero-mean prior σ [`FLIGHT_OFFSET_SIGMA_CELL_V`]) is fitted beside the
+/// curve: a flight whose sensor reads high then does not drag the curve flat.
 fn fit_once(
     rows: &[Row],
     prior: &LearnedBattery,
@@ -719,7 +748,9 @@ fn fit_once(
     tau: Option<usize>,
     learn_shape: bool,
     prior_sigma_v: f64,
-) -> Option<(LearnedBattery, f64, f64)> {
+    flights: usize,
+) -> Option<Fitted> {
+    let nf = if flights >= 2 { flights } else { 0 };
     // Unknowns: knot deviations (or one offset), r0, r1.
     let nk = if learn_shape { OCV_KNOTS } else { 1 };
     let has_rc = tau.is_some();
@@ -727,14 +758,15 @@ fn fit_once(
     let mut free_r1 = has_rc;
     for _ in 0..3 {
         let nr = usize::from(free_r0) + usize::from(free_r1);
-        let m = nk + nr;
+        let off0 = nk + nr;
+        let m = off0 + nf;
         let mut ata = vec![0.0; m * m];
         let mut atb = vec![0.0; m];
         let sigma_v = 0.01;
         for (r, ocv) in rows.iter().zip(prior_ocv) {
             // The row's non-zero entries, by column: two knots (or the offset), r0, r1. (The
             // zero entries would add zeros: they change no sum.)
-            let mut a = [(0usize, 0.0); 4];
+            let mut a = [(0usize, 0.0); 5];
             let mut len = 0;
             let mut put = |col: usize, v: f64| {
                 if v != 0.0 {
@@ -757,6 +789,9 @@ fn fit_once(
             if free_r1 {
                 put(c, -tau.map_or(0.0, |t| r.x_by_tau[t]));
             }
+            if nf > 0 {
+                put(off0 + r.flight.min(nf - 1), 1.0);
+            }
             let y = r.y - ocv;
             let w = r.w / (sigma_v * sigma_v);
             for &(p, ap) in &a[..len] {
@@ -772,6 +807,19 @@ fn fit_once(
         let l2 = 1.0 / (0.03f64 * 0.03);
         for k in 0..nk {
             ata[k * m + k] += l0;
+        }
+        let lf = 1.0 / (FLIGHT_OFFSET_SIGMA_CELL_V * FLIGHT_OFFSET_SIGMA_CELL_V);
+        for k in off0..m {
+            ata[k * m + k] += lf;
+        }
+        // The offsets sum to zero: their mean cannot be told from the curve's level, and a
+        // flight the fit did not see is read on the curve with offset 0, so the curve carries
+        // the flights' mean sensor.
+        let lsum = 1e4 * lf;
+        for p in off0..m {
+            for q in off0..m {
+                ata[p * m + q] += lsum;
+            }
         }
         if learn_shape {
             // The end of the discharge keeps the prior's shape (σ 0.05 V about the deviation at
@@ -806,6 +854,8 @@ fn fit_once(
             0.0
         };
         let r1 = if free_r1 { sol[c] } else { 0.0 };
+        let offsets: Vec<f64> = sol[off0..m].to_vec();
+        let off = |r: &Row| offsets.get(r.flight).copied().unwrap_or(0.0);
         if free_r0 && r0 < 0.0 {
             free_r0 = false;
             continue;
@@ -843,7 +893,7 @@ fn fit_once(
         let mut obj = 0.0;
         for r in rows {
             let x1 = tau.map_or(0.0, |t| r.x_by_tau[t]);
-            let e = r.y - b.ocv_cell_v(r.soc) + r.i * r0 + x1 * r1;
+            let e = r.y - off(r) - b.ocv_cell_v(r.soc) + r.i * r0 + x1 * r1;
             sse += r.w * e * e;
             sw += r.w;
             obj += r.w * e * e / (sigma_v * sigma_v);
@@ -856,7 +906,8 @@ fn fit_once(
                 0.0
             };
         }
-        return Some((b, obj, (sse / sw.max(1e-300)).sqrt()));
+        obj += offsets.iter().map(|o| lf * o * o).sum::<f64>();
+        return Some((b, obj, (sse / sw.max(1e-300)).sqrt(), offsets));
     }
     None
 }
@@ -904,100 +955,155 @@ pub fn fit_battery(
         CurrentSource::PowerModel
     };
     let seeds = row_seeds(data);
-    let mut best: Option<(BatteryFit, f64)> = None;
-    for (chem, prior) in priors {
-        // Rounds: the state of charge depends on the curve (start and capacity).
-        let mut start = prior;
-        let mut result = None;
-        for round in 0..2 {
-            let (rows, anchor) = rows_of(data, &seeds, &start);
-            // Counted on the first round's curve: flights whose count the voltage's start runs
-            // far past empty (see the note below).
-            let past_empty = if round == 1 {
-                counted_past_empty(data, &start)
-            } else {
-                0
-            };
-            let prior_ocv: Vec<f64> = rows.iter().map(|r| prior.ocv_cell_v(r.soc)).collect();
-            let lo = rows.iter().map(|r| r.soc).fold(f64::INFINITY, f64::min);
-            let hi = rows.iter().map(|r| r.soc).fold(f64::NEG_INFINITY, f64::max);
-            let span = (hi - lo).max(0.0);
-            // Without current the state of charge comes from the power model, and the curve's
-            // shape would trade off against that power: only an offset is learned then.
-            let learn_shape = chem != Chemistry::Measured
-                && current == CurrentSource::Logged
-                && rows.len() >= MIN_SAMPLES
-                && span >= MIN_SOC_SPAN;
-            let mut round: Option<(LearnedBattery, f64, f64)> = None;
-            for tau in std::iter::once(None).chain((0..TAUS_S.len()).map(Some)) {
-                if let Some(c) =
-                    fit_once(&rows, &prior, &prior_ocv, tau, learn_shape, prior_sigma_v)
-                {
-                    if round.as_ref().is_none_or(|r| c.1 < r.1) {
-                        round = Some(c);
+    // One fit over every prior, with a voltage-sensor offset per flight when `offset_flights`
+    // ≥ 2; the best with its objective and its flights counted far past empty.
+    let fit_all = |offset_flights: usize| -> Option<(BatteryFit, f64, usize)> {
+        let mut best: Option<(BatteryFit, f64, usize)> = None;
+        for &(chem, prior) in &priors {
+            // Rounds: the state of charge depends on the curve (start and capacity).
+            let mut start = prior;
+            // Each flight's voltage-sensor offset per cell learned by the previous round: the
+            // second round reads a flight's start through it, so that the fit's axis and its
+            // voltage agree.
+            let mut offsets: Vec<f64> = Vec::new();
+            let mut result = None;
+            for round in 0..2 {
+                let (rows, anchor) = rows_of(data, &seeds, &start, &offsets);
+                // Counted on the first round's curve: flights whose count the voltage's start runs
+                // far past empty (see the note below).
+                let past_empty = if round == 1 {
+                    counted_past_empty(data, &start, &offsets)
+                } else {
+                    0
+                };
+                let prior_ocv: Vec<f64> = rows.iter().map(|r| prior.ocv_cell_v(r.soc)).collect();
+                let lo = rows.iter().map(|r| r.soc).fold(f64::INFINITY, f64::min);
+                let hi = rows.iter().map(|r| r.soc).fold(f64::NEG_INFINITY, f64::max);
+                let span = (hi - lo).max(0.0);
+                // Without current the state of charge comes from the power model, and the curve's
+                // shape would trade off against that power: only an offset is learned then.
+                let learn_shape = chem != Chemistry::Measured
+                    && current == CurrentSource::Logged
+                    && rows.len() >= MIN_SAMPLES
+                    && span >= MIN_SOC_SPAN;
+                let mut round: Option<Fitted> = None;
+                for tau in std::iter::once(None).chain((0..TAUS_S.len()).map(Some)) {
+                    if let Some(c) = fit_once(
+                        &rows,
+                        &prior,
+                        &prior_ocv,
+                        tau,
+                        learn_shape,
+                        prior_sigma_v,
+                        offset_flights,
+                    ) {
+                        if round.as_ref().is_none_or(|r| c.1 < r.1) {
+                            round = Some(c);
+                        }
                     }
                 }
-            }
-            let Some((mut b, obj, rmse)) = round else {
-                break;
-            };
-            if chem == Chemistry::Measured {
-                b.ocv_cell_v = prior.ocv_cell_v;
-            }
-            let mut note = if chem == Chemistry::Measured {
-                "open-circuit curve as measured (given); resistances learned".to_owned()
-            } else if learn_shape {
-                format!(
-                    "open-circuit curve learned over state of charge {:.2}–{:.2}, the {} prior's shape beyond",
-                    lo.max(0.0),
-                    hi.min(1.0),
-                    chem.name()
-                )
-            } else if current == CurrentSource::PowerModel {
-                format!(
-                    "no current logged: the {} prior's shape shifted to the flights (the shape would trade off against the power model), resistances learned",
-                    chem.name()
-                )
-            } else {
-                format!(
-                    "too little data to learn the curve's shape ({} samples over {:.2} of the charge; needs {MIN_SAMPLES} over {MIN_SOC_SPAN}): the {} prior shifted, resistances learned",
-                    rows.len(),
-                    span,
-                    chem.name()
-                )
-            };
-            if past_empty > 0 {
-                note.push_str(&format!(
+                let Some((mut b, obj, rmse, learned_offsets)) = round else {
+                    break;
+                };
+                if chem == Chemistry::Measured {
+                    b.ocv_cell_v = prior.ocv_cell_v;
+                }
+                let mut note = if chem == Chemistry::Measured {
+                    "open-circuit curve as measured (given); resistances learned".to_owned()
+                } else if learn_shape {
+                    format!(
+                        "open-circuit curve learned over state of charge {:.2}–{:.2}, the {} prior's shape beyond",
+                        lo.max(0.0),
+                        hi.min(1.0),
+                        chem.name()
+                    )
+                } else if current == CurrentSource::PowerModel {
+                    format!(
+                        "no current logged: the {} prior's shape shifted to the flights (the shape would trade off against the power model), resistances learned",
+                        chem.name()
+                    )
+                } else {
+                    format!(
+                        "too little data to learn the curve's shape ({} samples over {:.2} of the charge; needs {MIN_SAMPLES} over {MIN_SOC_SPAN}): the {} prior shifted, resistances learned",
+                        rows.len(),
+                        span,
+                        chem.name()
+                    )
+                };
+                if let (Some(lo), Some(hi)) = (
+                    learned_offsets.iter().copied().reduce(f64::min),
+                    learned_offsets.iter().copied().reduce(f64::max),
+                ) {
+                    note.push_str(&format!(
+                    "; per-flight voltage-sensor offsets learned (prior σ {:.2} V per cell): {:+.3} to {:+.3} V per cell",
+                    FLIGHT_OFFSET_SIGMA_CELL_V, lo, hi
+                ));
+                }
+                if past_empty > 0 {
+                    note.push_str(&format!(
                     "; UNRELIABLE: on the first round's curve the voltage reads starts that the charge counted runs {past_empty} of {} flights more than {:.0} % of the charge past empty (a flat stretch of the curve, or a count far off): their last samples pile onto the curve's lowest knots",
                     data.len(),
                     MAX_COUNT_PAST_EMPTY * 100.0
                 ));
+                }
+                result = Some((
+                    BatteryFit {
+                        battery_type: battery_type.to_owned(),
+                        battery: b,
+                        prior: chem,
+                        flights: data.len(),
+                        samples: rows.len(),
+                        soc_covered: (lo.max(0.0), hi.min(1.0)),
+                        rmse_cell_v: rmse,
+                        current,
+                        note,
+                        rated_capacity_ah: data.first().map_or(f64::NAN, |d| {
+                            d.flight.info.battery_energy_wh
+                                / (f64::from(d.flight.info.cells.max(1)) * b.mean_ocv_cell_v())
+                        }),
+                        usable_capacity_ah: anchor.usable_ah,
+                    },
+                    obj,
+                    past_empty,
+                ));
+                if std::env::var_os("GAP_DEBUG_OFFSETS").is_some() {
+                    eprintln!(
+                        "DBG {battery_type} {} pe {past_empty} r0 {:.4} r1 {:.4} tau {} rmse {:.4} obj {:.1} offs {:?} knots {:?}",
+                        chem.name(),
+                        b.series_resistance_cell_ohm,
+                        b.rc_resistance_cell_ohm,
+                        b.rc_time_constant_s,
+                        rmse,
+                        obj,
+                        learned_offsets
+                            .iter()
+                            .map(|o| (o * 1000.0).round() / 1000.0)
+                            .collect::<Vec<_>>(),
+                        b.ocv_cell_v
+                            .iter()
+                            .step_by(4)
+                            .map(|o| (o * 1000.0).round() / 1000.0)
+                            .collect::<Vec<_>>()
+                    );
+                }
+                start = b;
+                offsets = learned_offsets;
             }
-            result = Some((
-                BatteryFit {
-                    battery_type: battery_type.to_owned(),
-                    battery: b,
-                    prior: chem,
-                    flights: data.len(),
-                    samples: rows.len(),
-                    soc_covered: (lo.max(0.0), hi.min(1.0)),
-                    rmse_cell_v: rmse,
-                    current,
-                    note,
-                    rated_capacity_ah: data.first().map_or(f64::NAN, |d| {
-                        d.flight.info.battery_energy_wh
-                            / (f64::from(d.flight.info.cells.max(1)) * b.mean_ocv_cell_v())
-                    }),
-                    usable_capacity_ah: anchor.usable_ah,
-                },
-                obj,
-            ));
-            start = b;
+            if let Some((fit, obj, past_empty)) = result {
+                if best.as_ref().is_none_or(|b| obj < b.1) {
+                    best = Some((fit, obj, past_empty));
+                }
+            }
         }
-        if let Some((fit, obj)) = result {
-            if best.as_ref().is_none_or(|b| obj < b.1) {
-                best = Some((fit, obj));
-            }
+        best
+    };
+    let mut best = fit_all(0);
+    // Flights counted far past empty on the first round's curve: the flights disagree in
+    // voltage (a sensor reading high drags the isotonic curve flat). Refit with a
+    // voltage-sensor offset per flight, the starts read through them.
+    if data.len() >= 2 && best.as_ref().is_some_and(|b| b.2 > 0) {
+        if let Some(b) = fit_all(data.len()) {
+            best = Some(b);
         }
     }
     best.map(|b| b.0).unwrap_or_else(|| {
