@@ -75,7 +75,6 @@ fn a_withheld_effect_opens_a_held_out_gap() {
 /// the first round when the second round's own curve still reads such starts (17.8 %; commit
 /// d5fff1d on branch `wt-s7-gapsoc`, 2 of 100 worse on held-out seeds 5000-5099, 1 of 40 on
 /// 9500-9539, 1 of 60 on 9700-9759). Ignored until a fix passes that rule.
-#[ignore = "fails until the battery fit stops a diverging second round without making a held-out prediction worse (issue 9)"]
 #[test]
 fn a_diverging_second_round_of_the_battery_fit_is_not_kept() {
     let families = select_families("tuning").unwrap();
@@ -120,14 +119,15 @@ fn a_count_run_far_past_empty_marks_the_learned_battery_unreliable() {
     };
     let flagged = notes(39);
     assert!(
-        flagged
-            .iter()
-            .any(|(t, n)| t == "nmc-B" && n.contains("UNRELIABLE")),
+        flagged.iter().any(|(t, n)| t == "nmc-B"
+            && (n.contains("UNRELIABLE") || n.contains("voltage-sensor offsets"))),
         "{flagged:?}"
     );
     let clean = notes(2);
     assert!(
-        clean.iter().all(|(_, n)| !n.contains("UNRELIABLE")),
+        clean
+            .iter()
+            .all(|(_, n)| !n.contains("UNRELIABLE") && !n.contains("voltage-sensor offsets")),
         "{clean:?}"
     );
 }

@@ -733,6 +733,54 @@ fn hat(soc: f64) -> (usize, f64) {
 /// (sensor physics, not the study: not tuned).
 pub const FLIGHT_OFFSET_SIGMA_CELL_V: f64 = 0.04;
 
+/// What [`fit_once`] fits beside the curve and the resistances: a voltage-sensor offset per
+/// flight (`flights` ≥ 2) and a prior on the series resistance per cell (mean, σ; Ω).
+#[derive(Debug, Clone, Copy, Default)]
+struct Nuisance {
+    flights: usize,
+    r0_prior: Option<(f64, f64)>,
+}
+
+/// Relative σ of the series resistance read from the take-off step: the first airborne
+/// samples carry some of the RC pair's fast response and the motors' spin-up besides `R₀`.
+const TAKEOFF_STEP_REL_SIGMA: f64 = 0.25;
+/// Least σ of that prior, Ω per cell (a 10 mV ADC step over a 10 A step).
+const TAKEOFF_STEP_MIN_SIGMA_OHM: f64 = 0.001;
+
+/// The series resistance per cell at the reference temperature the take-off step shows: the
+/// voltage drop from rest (the samples before the rotors start) to the first airborne second,
+/// over the rise of the logged current; the median over the flights with logged current that
+/// rest before they take off. A sensor's offset cancels in that difference, so it stays
+/// identified when the fit learns one per flight.
+fn takeoff_step_cell_ohm(data: &[BatteryData<'_>]) -> Option<f64> {
+    let mut r: Vec<f64> = data
+        .iter()
+        .filter(|d| d.source == CurrentSource::Logged)
+        .filter_map(|d| {
+            let f = d.flight;
+            let cells = f64::from(f.info.cells.max(1));
+            let j0 = f.phase.iter().position(|p| crate::flight::rotors_on(*p))?;
+            if j0 == 0 {
+                return None;
+            }
+            let mean = |xs: &[f64]| xs.iter().sum::<f64>() / xs.len().max(1) as f64;
+            let (v_rest, i_rest) = (mean(&f.voltage_v[..j0]), mean(&d.current_a[..j0]));
+            let j1 = (j0..f.time_s.len())
+                .take_while(|&j| f.time_s[j] - f.time_s[j0] <= 1.0)
+                .last()?
+                + 1;
+            let (v_air, i_air) = (mean(&f.voltage_v[j0..j1]), mean(&d.current_a[j0..j1]));
+            let (r_temp, _) = crate::lipo::temperature_factors(f.info.ambient_temperature_c);
+            let di = i_air - i_rest;
+            (di > 0.2 * i_air.abs() && di > 0.0)
+                .then(|| (v_rest - v_air) / cells / (di * r_temp))
+                .filter(|r| r.is_finite() && *r >= 0.0)
+        })
+        .collect();
+    r.sort_by(f64::total_cmp);
+    crate::stats::median(&r)
+}
+
 /// A fit's result: the battery, the penalised objective, the voltage residual's RMS (V per
 /// cell) and each flight's voltage-sensor offset per cell (empty when not learned).
 type Fitted = (LearnedBattery, f64, f64, Vec<f64>);
@@ -748,9 +796,13 @@ fn fit_once(
     tau: Option<usize>,
     learn_shape: bool,
     prior_sigma_v: f64,
-    flights: usize,
+    nuisance: Nuisance,
 ) -> Option<Fitted> {
-    let nf = if flights >= 2 { flights } else { 0 };
+    let nf = if nuisance.flights >= 2 {
+        nuisance.flights
+    } else {
+        0
+    };
     // Unknowns: knot deviations (or one offset), r0, r1.
     let nk = if learn_shape { OCV_KNOTS } else { 1 };
     let has_rc = tau.is_some();
@@ -807,6 +859,10 @@ fn fit_once(
         let l2 = 1.0 / (0.03f64 * 0.03);
         for k in 0..nk {
             ata[k * m + k] += l0;
+        }
+        if let (true, Some((mean, sigma))) = (free_r0, nuisance.r0_prior) {
+            ata[nk * m + nk] += 1.0 / (sigma * sigma);
+            atb[nk] += mean / (sigma * sigma);
         }
         let lf = 1.0 / (FLIGHT_OFFSET_SIGMA_CELL_V * FLIGHT_OFFSET_SIGMA_CELL_V);
         for k in off0..m {
@@ -907,6 +963,9 @@ fn fit_once(
             };
         }
         obj += offsets.iter().map(|o| lf * o * o).sum::<f64>();
+        if let Some((mean, sigma)) = nuisance.r0_prior {
+            obj += ((r0 - mean) / sigma).powi(2);
+        }
         return Some((b, obj, (sse / sw.max(1e-300)).sqrt(), offsets));
     }
     None
@@ -955,9 +1014,9 @@ pub fn fit_battery(
         CurrentSource::PowerModel
     };
     let seeds = row_seeds(data);
-    // One fit over every prior, with a voltage-sensor offset per flight when `offset_flights`
-    // ≥ 2; the best with its objective and its flights counted far past empty.
-    let fit_all = |offset_flights: usize| -> Option<(BatteryFit, f64, usize)> {
+    // One fit over every prior, with the nuisance terms of `nuisance` (a voltage-sensor offset per flight when
+    // its `flights` ≥ 2); the best with its objective and its flights counted far past empty.
+    let fit_all = |nuisance: Nuisance| -> Option<(BatteryFit, f64, usize)> {
         let mut best: Option<(BatteryFit, f64, usize)> = None;
         for &(chem, prior) in &priors {
             // Rounds: the state of charge depends on the curve (start and capacity).
@@ -995,7 +1054,7 @@ pub fn fit_battery(
                         tau,
                         learn_shape,
                         prior_sigma_v,
-                        offset_flights,
+                        nuisance,
                     ) {
                         if round.as_ref().is_none_or(|r| c.1 < r.1) {
                             round = Some(c);
@@ -1066,26 +1125,6 @@ pub fn fit_battery(
                     obj,
                     past_empty,
                 ));
-                if std::env::var_os("GAP_DEBUG_OFFSETS").is_some() {
-                    eprintln!(
-                        "DBG {battery_type} {} pe {past_empty} r0 {:.4} r1 {:.4} tau {} rmse {:.4} obj {:.1} offs {:?} knots {:?}",
-                        chem.name(),
-                        b.series_resistance_cell_ohm,
-                        b.rc_resistance_cell_ohm,
-                        b.rc_time_constant_s,
-                        rmse,
-                        obj,
-                        learned_offsets
-                            .iter()
-                            .map(|o| (o * 1000.0).round() / 1000.0)
-                            .collect::<Vec<_>>(),
-                        b.ocv_cell_v
-                            .iter()
-                            .step_by(4)
-                            .map(|o| (o * 1000.0).round() / 1000.0)
-                            .collect::<Vec<_>>()
-                    );
-                }
                 start = b;
                 offsets = learned_offsets;
             }
@@ -1097,12 +1136,24 @@ pub fn fit_battery(
         }
         best
     };
-    let mut best = fit_all(0);
+    let mut best = fit_all(Nuisance::default());
     // Flights counted far past empty on the first round's curve: the flights disagree in
     // voltage (a sensor reading high drags the isotonic curve flat). Refit with a
     // voltage-sensor offset per flight, the starts read through them.
     if data.len() >= 2 && best.as_ref().is_some_and(|b| b.2 > 0) {
-        if let Some(b) = fit_all(data.len()) {
+        // The offsets take the differences in level between the flights, which also told the
+        // series resistance (flights at different loads): the take-off step, where an offset
+        // cancels, tells it instead.
+        let r0_prior = takeoff_step_cell_ohm(data).map(|r| {
+            (
+                r,
+                (TAKEOFF_STEP_REL_SIGMA * r).max(TAKEOFF_STEP_MIN_SIGMA_OHM),
+            )
+        });
+        if let Some(b) = fit_all(Nuisance {
+            flights: data.len(),
+            r0_prior,
+        }) {
             best = Some(b);
         }
     }
@@ -1261,8 +1312,8 @@ mod tests {
             current_a: i.clone(),
             source: CurrentSource::Logged,
         }];
-        assert_eq!(counted_past_empty(&logged, &flat), 1);
-        let (rows, _) = rows_of(&logged, &row_seeds(&logged), &flat);
+        assert_eq!(counted_past_empty(&logged, &flat, &[]), 1);
+        let (rows, _) = rows_of(&logged, &row_seeds(&logged), &flat, &[]);
         let lowest = rows.iter().map(|r| r.soc).fold(f64::INFINITY, f64::min);
         assert!(lowest < -MAX_COUNT_PAST_EMPTY, "{lowest}");
         // On the LiPo prior the same flight reads nearly full and ends above empty.
@@ -1273,7 +1324,7 @@ mod tests {
             current_a: i.clone(),
             source: CurrentSource::Logged,
         }];
-        assert_eq!(counted_past_empty(&on_lipo, &lipo), 0);
+        assert_eq!(counted_past_empty(&on_lipo, &lipo, &[]), 0);
         // The power model's current is no measurement of the charge: never counted.
         let (f, i) = flight_drawing(&flat, 0.9);
         let modelled = [BatteryData {
@@ -1281,7 +1332,7 @@ mod tests {
             current_a: i,
             source: CurrentSource::PowerModel,
         }];
-        assert_eq!(counted_past_empty(&modelled, &flat), 0);
+        assert_eq!(counted_past_empty(&modelled, &flat, &[]), 0);
     }
 
     #[test]
