@@ -74,7 +74,17 @@ fn a_withheld_effect_opens_a_held_out_gap() {
 /// 17badd5); taking a start the count runs more than 30 % past empty from the count, and keeping
 /// the first round when the second round's own curve still reads such starts (17.8 %; commit
 /// d5fff1d on branch `wt-s7-gapsoc`, 2 of 100 worse on held-out seeds 5000-5099, 1 of 40 on
-/// 9500-9539, 1 of 60 on 9700-9759). Ignored until a fix passes that rule.
+/// 9500-9539, 1 of 60 on 9700-9759). Also tried (commit 980f134 on branch `wt-s7-gapsoc`,
+/// session 7 helper gapsoc2): when the first round's count runs a flight more than 30 % past
+/// empty, refit with one additive voltage-sensor offset per flight (zero-mean prior σ 0.04 V per
+/// cell, the offsets summing to zero) and a prior on R₀ from the take-off step, each training
+/// flight's start read through its round-1 offset: seed 39 8.0 %, tuning seeds 8/26/30/32 from
+/// ~50 % to 9-14 %, 0 worse on tuning 0-39, all 0-39, 9500-9539 and fresh 10300-10359, but 1 of
+/// 100 worse on 5000-5099 (5039 lfp/bb-50hz 0.73 → 1.53 %). The learned offsets reach
+/// 0.2-0.4 V per cell (5-10 σ) on lab-1hz logs, so they absorb model misfit, not only sensor
+/// error: their prior is swamped by hundreds of rows per flight. Ignored until a fix passes
+/// that rule.
+#[ignore = "fails until the battery fit stops a diverging second round without making a held-out prediction worse (issue 9)"]
 #[test]
 fn a_diverging_second_round_of_the_battery_fit_is_not_kept() {
     let families = select_families("tuning").unwrap();
@@ -119,15 +129,14 @@ fn a_count_run_far_past_empty_marks_the_learned_battery_unreliable() {
     };
     let flagged = notes(39);
     assert!(
-        flagged.iter().any(|(t, n)| t == "nmc-B"
-            && (n.contains("UNRELIABLE") || n.contains("voltage-sensor offsets"))),
+        flagged
+            .iter()
+            .any(|(t, n)| t == "nmc-B" && n.contains("UNRELIABLE")),
         "{flagged:?}"
     );
     let clean = notes(2);
     assert!(
-        clean
-            .iter()
-            .all(|(_, n)| !n.contains("UNRELIABLE") && !n.contains("voltage-sensor offsets")),
+        clean.iter().all(|(_, n)| !n.contains("UNRELIABLE")),
         "{clean:?}"
     );
 }
