@@ -74,17 +74,15 @@ fn a_withheld_effect_opens_a_held_out_gap() {
 /// 17badd5); taking a start the count runs more than 30 % past empty from the count, and keeping
 /// the first round when the second round's own curve still reads such starts (17.8 %; commit
 /// d5fff1d on branch `wt-s7-gapsoc`, 2 of 100 worse on held-out seeds 5000-5099, 1 of 40 on
-/// 9500-9539, 1 of 60 on 9700-9759). Also tried (commit 980f134 on branch `wt-s7-gapsoc`,
-/// session 7 helper gapsoc2): when the first round's count runs a flight more than 30 % past
-/// empty, refit with one additive voltage-sensor offset per flight (zero-mean prior σ 0.04 V per
-/// cell, the offsets summing to zero) and a prior on R₀ from the take-off step, each training
-/// flight's start read through its round-1 offset: seed 39 8.0 %, tuning seeds 8/26/30/32 from
-/// ~50 % to 9-14 %, 0 worse on tuning 0-39, all 0-39, 9500-9539 and fresh 10300-10359, but 1 of
-/// 100 worse on 5000-5099 (5039 lfp/bb-50hz 0.73 → 1.53 %). The learned offsets reach
-/// 0.2-0.4 V per cell (5-10 σ) on lab-1hz logs, so they absorb model misfit, not only sensor
-/// error: their prior is swamped by hundreds of rows per flight. Ignored until a fix passes
-/// that rule.
-#[ignore = "fails until the battery fit stops a diverging second round without making a held-out prediction worse (issue 9)"]
+/// 9500-9539, 1 of 60 on 9700-9759).
+///
+/// Fixed (issue 9) by refitting with one voltage-sensor offset per flight and a prior on R₀
+/// from the take-off step when the first round's count runs a flight more than 30 % past
+/// empty, the count capped at a full pack (see `gap::battery`'s module docs): seed 39 8.0 %.
+/// Without that cap (commit 980f134) held-out seed 5039 (lfp/bb-50hz) got worse, 0.73 →
+/// 1.53 %: its pack lfp-A's trigger was a flight read full (0.998) whose current counted 1.31
+/// of the rated charge, a count error no voltage offset can explain, and the offsets then took
+/// up model misfit (its RC pair and 0.1 V of its plateau).
 #[test]
 fn a_diverging_second_round_of_the_battery_fit_is_not_kept() {
     let families = select_families("tuning").unwrap();
@@ -129,14 +127,15 @@ fn a_count_run_far_past_empty_marks_the_learned_battery_unreliable() {
     };
     let flagged = notes(39);
     assert!(
-        flagged
-            .iter()
-            .any(|(t, n)| t == "nmc-B" && n.contains("UNRELIABLE")),
+        flagged.iter().any(|(t, n)| t == "nmc-B"
+            && (n.contains("UNRELIABLE") || n.contains("voltage-sensor offsets"))),
         "{flagged:?}"
     );
     let clean = notes(2);
     assert!(
-        clean.iter().all(|(_, n)| !n.contains("UNRELIABLE")),
+        clean
+            .iter()
+            .all(|(_, n)| !n.contains("UNRELIABLE") && !n.contains("voltage-sensor offsets")),
         "{clean:?}"
     );
 }
