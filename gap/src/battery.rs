@@ -754,6 +754,10 @@ fn hat(soc: f64) -> (usize, f64) {
 /// (sensor physics, not the study: not tuned).
 pub const FLIGHT_OFFSET_SIGMA_CELL_V: f64 = 0.04;
 
+/// How many σ a flight's voltage-sensor offset may reach: the divider's and the ADC's
+/// tolerances at their worst (≈ 2 % of 4.2 V).
+const FLIGHT_OFFSET_BOUND_SIGMAS: f64 = 2.0;
+
 /// What [`fit_once`] fits beside the curve and the resistances: a voltage-sensor offset per
 /// flight (`flights` ≥ 2) and a prior on the series resistance per cell (mean, σ; Ω).
 #[derive(Debug, Clone, Copy, Default)]
@@ -765,6 +769,10 @@ struct Nuisance {
 /// Relative σ of the series resistance read from the take-off step: the first airborne
 /// samples carry some of the RC pair's fast response and the motors' spin-up besides `R₀`.
 const TAKEOFF_STEP_REL_SIGMA: f64 = 0.25;
+/// How many σ below the take-off step's series resistance the fit may go: the step bounds
+/// `R₀` from below (the first airborne second adds the RC pair's fast response, never less),
+/// so a fit that trades `R₀` away for the curve or the offsets is held at that bound.
+const R0_FLOOR_SIGMAS: f64 = 2.0;
 /// Least σ of that prior, Ω per cell (a 10 mV ADC step over a 10 A step).
 const TAKEOFF_STEP_MIN_SIGMA_OHM: f64 = 0.001;
 
@@ -828,8 +836,18 @@ fn fit_once(
     let nk = if learn_shape { OCV_KNOTS } else { 1 };
     let has_rc = tau.is_some();
     let mut free_r0 = true;
+    // The series resistance when it is not free: 0 (a fit that wants it negative), or the
+    // take-off step's lower bound when a prior from it is given.
+    let mut r0_fixed = 0.0;
+    let r0_floor = nuisance
+        .r0_prior
+        .map_or(0.0, |(mean, sigma)| (mean - R0_FLOOR_SIGMAS * sigma).max(0.0));
     let mut free_r1 = has_rc;
-    for _ in 0..3 {
+    // Offsets held at the sensor's bound (± `FLIGHT_OFFSET_BOUND_SIGMAS` σ): a fit that wants
+    // one beyond it is taking up misfit of the model, not a sensor's error.
+    let mut pinned: Vec<Option<f64>> = vec![None; nf];
+    let bound = FLIGHT_OFFSET_BOUND_SIGMAS * FLIGHT_OFFSET_SIGMA_CELL_V;
+    for _ in 0..3 + nf {
         let nr = usize::from(free_r0) + usize::from(free_r1);
         let off0 = nk + nr;
         let m = off0 + nf;
@@ -865,7 +883,7 @@ fn fit_once(
             if nf > 0 {
                 put(off0 + r.flight.min(nf - 1), 1.0);
             }
-            let y = r.y - ocv;
+            let y = r.y - ocv + if free_r0 { 0.0 } else { r.i * r0_fixed };
             let w = r.w / (sigma_v * sigma_v);
             for &(p, ap) in &a[..len] {
                 atb[p] += w * ap * y;
@@ -898,6 +916,13 @@ fn fit_once(
                 ata[p * m + q] += lsum;
             }
         }
+        for (k, pin) in pinned.iter().enumerate() {
+            if let Some(v) = pin {
+                let big = 1e6 * lf;
+                ata[(off0 + k) * m + off0 + k] += big;
+                atb[off0 + k] += big * v;
+            }
+        }
         if learn_shape {
             // The end of the discharge keeps the prior's shape (σ 0.05 V about the deviation at
             // KNEE_FREE_SOC): where the knee sits cannot be told from a lost capacity by the
@@ -928,17 +953,28 @@ fn fit_once(
             c += 1;
             sol[c - 1]
         } else {
-            0.0
+            r0_fixed
         };
         let r1 = if free_r1 { sol[c] } else { 0.0 };
         let offsets: Vec<f64> = sol[off0..m].to_vec();
         let off = |r: &Row| offsets.get(r.flight).copied().unwrap_or(0.0);
-        if free_r0 && r0 < 0.0 {
+        if free_r0 && r0 < r0_floor {
             free_r0 = false;
+            r0_fixed = r0_floor;
             continue;
         }
         if free_r1 && r1 < 0.0 {
             free_r1 = false;
+            continue;
+        }
+        let mut newly = false;
+        for (k, pin) in pinned.iter_mut().enumerate() {
+            if pin.is_none() && offsets[k].abs() > bound * (1.0 + 1e-6) {
+                *pin = Some(bound.copysign(offsets[k]));
+                newly = true;
+            }
+        }
+        if newly {
             continue;
         }
         let mut knots = prior.ocv_cell_v;
@@ -1436,6 +1472,87 @@ mod tests {
         )
         .unwrap();
         assert!(offsets.is_empty() && rmse > 0.02, "{offsets:?} {rmse}");
+    }
+
+    /// Two flights on the LiPo curve, R₀ 10 mΩ per cell, the sensors reading `off` and `-off`
+    /// V per cell; the rows of flight 1 carry `extra_r` Ω per cell less series drop.
+    fn two_sensor_rows(off: f64, extra_r: f64) -> Vec<Row> {
+        let prior = LearnedBattery::lipo();
+        let mut rows = Vec::new();
+        for (flight, o, r) in [(0usize, off, 0.01), (1, -off, 0.01 - extra_r)] {
+            for j in 0..300 {
+                let soc = 0.9 - 0.6 * j as f64 / 300.0;
+                let i = 10.0 + 5.0 * ((j / 30) % 2) as f64;
+                rows.push(Row {
+                    soc,
+                    y: prior.ocv_cell_v(soc) - r * i + o,
+                    i,
+                    x_by_tau: [0.0; TAUS_S.len()],
+                    w: 1.0,
+                    flight,
+                });
+            }
+        }
+        rows
+    }
+
+    #[test]
+    fn an_offset_beyond_what_a_sensor_can_be_is_held_at_its_bound() {
+        // The flights disagree by 0.4 V per cell: no divider or ADC is that far off, so the
+        // offsets stop at their bound (2 σ) and the rest stays in the residual.
+        let prior = LearnedBattery::lipo();
+        let rows = two_sensor_rows(0.2, 0.0);
+        let prior_ocv: Vec<f64> = rows.iter().map(|r| prior.ocv_cell_v(r.soc)).collect();
+        let nuisance = Nuisance {
+            flights: 2,
+            r0_prior: Some((0.01, 0.0025)),
+        };
+        let (_, _, rmse, offsets) =
+            fit_once(&rows, &prior, &prior_ocv, None, false, 0.03, nuisance).unwrap();
+        let bound = FLIGHT_OFFSET_BOUND_SIGMAS * FLIGHT_OFFSET_SIGMA_CELL_V;
+        assert!((offsets[0] - bound).abs() < 1e-3, "{offsets:?}");
+        assert!((offsets[1] + bound).abs() < 1e-3, "{offsets:?}");
+        assert!(rmse > 0.1, "{rmse}");
+    }
+
+    #[test]
+    fn the_take_off_step_bounds_the_series_resistance_from_below() {
+        // Flight 1 shows 20 mΩ per cell less drop than flight 0 (R₀ 10 mΩ): a free fit would
+        // take R₀ to zero; with the take-off step's prior (10 mΩ, σ 2.5 mΩ) it stays at or
+        // above 2 σ below it.
+        let prior = LearnedBattery::lipo();
+        let rows = two_sensor_rows(0.0, 0.02);
+        let prior_ocv: Vec<f64> = rows.iter().map(|r| prior.ocv_cell_v(r.soc)).collect();
+        let (b, ..) = fit_once(
+            &rows,
+            &prior,
+            &prior_ocv,
+            None,
+            false,
+            0.03,
+            Nuisance {
+                flights: 2,
+                r0_prior: Some((0.01, 0.0025)),
+            },
+        )
+        .unwrap();
+        let floor = 0.01 - R0_FLOOR_SIGMAS * 0.0025;
+        assert!(b.series_resistance_cell_ohm >= floor - 1e-9, "{b:?}");
+        // Without the prior nothing holds it up.
+        let (b, ..) = fit_once(
+            &rows,
+            &prior,
+            &prior_ocv,
+            None,
+            false,
+            0.03,
+            Nuisance {
+                flights: 2,
+                r0_prior: None,
+            },
+        )
+        .unwrap();
+        assert!(b.series_resistance_cell_ohm < floor, "{b:?}");
     }
 
     #[test]
