@@ -71,6 +71,10 @@ fn config_from_env() -> estimator::online::OnlineConfig {
             "voltage_bias_drift_cell_v_per_sqrt_s" => &mut c.voltage_bias_drift_cell_v_per_sqrt_s,
             "prediction_model_sigma_fraction" => &mut c.prediction_model_sigma_fraction,
             "end_soc_sigma" => &mut c.end_soc_sigma,
+            "current_scale_sigma" => &mut c.current_scale_sigma,
+            "current_offset_sigma_a" => &mut c.current_offset_sigma_a,
+            "cutoff_curve_sigma_cell_v" => &mut c.cutoff_curve_sigma_cell_v,
+            "voltage_scale_sigma" => &mut c.voltage_scale_sigma,
             other => panic!("unknown key {other}"),
         };
         *slot = v;

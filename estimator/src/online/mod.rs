@@ -200,11 +200,39 @@ pub struct OnlineConfig {
     /// Model error of a predicted remaining time, as a fraction of it, added in quadrature to
     /// the spread of the state's sigma points.
     pub prediction_model_sigma_fraction: f64,
-    /// Uncertainty of the state of charge at which the loaded voltage will reach the cut-off
-    /// (the knee of the curve, which no flight has shown before it gets there), as a fraction
-    /// of the pack: it adds `end_soc_sigma × (time a full pack lasts at the phase's power)` in
-    /// quadrature to every predicted remaining time, however short. A process uncertainty, not
-    /// a state: it does not shrink as samples come in, only once the knee is reached.
+    /// Scale error of the current sensor (one sigma, a fraction of the reading): the charge
+    /// counted so far and the power measured in hover are both off by it, and nothing in the
+    /// flight tells it from a capacity or a power draw, so the band carries it (a consider
+    /// parameter: a pair of forward integrations with the count and the learned power moved by
+    /// one sigma). Default 0.03: an uncalibrated hobby power module — shunt tolerance and the
+    /// ADC reference (an uncalibrated shunt wattmeter's maximum relative error is about 3 %,
+    /// DFRobot SEN0291's notes), or a Hall sensor's sensitivity trim. A sensor calibrated
+    /// against a meter: 0.002–0.005. Only used while the current is logged.
+    pub current_scale_sigma: f64,
+    /// Zero-current offset of the current sensor (one sigma), A: counted over the time the
+    /// current was logged, and times the voltage in the measured power. Default 0.2 A: a Hall
+    /// power module's quiescent-output trim and drift (tens of mA to a few tenths of an ampere
+    /// on 50–100 A parts); a lab shunt logger: 0.01–0.02 A.
+    pub current_offset_sigma_a: f64,
+    /// Uncertainty of the open-circuit curve's shape between the state of charge now (where
+    /// the curve offset is estimated) and where the loaded voltage will reach the cut-off, V
+    /// per cell (one sigma, reached once the two points are a knot spacing, 5 % of the charge,
+    /// or more apart; closer, it shrinks as the square root of the charge between them). The
+    /// band moves the cut-off by this and integrates again, so the charge left at the cut-off
+    /// follows the curve's slope there: a steep knee (LiPo) costs seconds, a gentle low end
+    /// (NMC, LiFePO₄) minutes. Default 0.042 V: √2 × 0.03 V, the gap diagnosis's pack-to-pack
+    /// standard deviation of a known chemistry's curve at a knot (`gap::battery`'s prior pull),
+    /// for the two independent points; below a quarter of the charge the learned curve is that
+    /// prior's shape (`gap::battery::KNEE_FREE_SOC`), so it applies in full there.
+    pub cutoff_curve_sigma_cell_v: f64,
+    /// Scale error of the voltage sensor (one sigma, a fraction): the voltage still to fall
+    /// from the open-circuit voltage now to the cut-off is off by it, which moves the cut-off
+    /// the same way. Default 0.01: a 1 % resistor divider.
+    pub voltage_scale_sigma: f64,
+    /// An extra uncertainty of the state of charge at which the cut-off comes, as a fraction of
+    /// the pack, added as `end_soc_sigma × (time a full pack lasts at the phase's power)`. Not
+    /// a physical source (the ones above are): 0 by default; kept for a user who knows their
+    /// pack's knee is less certain than the curve says.
     pub end_soc_sigma: f64,
 }
 
@@ -231,7 +259,11 @@ impl Default for OnlineConfig {
             gap_s: 10.0,
             prediction_interval_s: 1.0,
             prediction_model_sigma_fraction: 0.02,
-            end_soc_sigma: 0.08,
+            current_scale_sigma: 0.03,
+            current_offset_sigma_a: 0.2,
+            cutoff_curve_sigma_cell_v: 0.042,
+            voltage_scale_sigma: 0.01,
+            end_soc_sigma: 0.0,
         }
     }
 }
@@ -291,6 +323,13 @@ impl OnlineConfig {
                 self.prediction_model_sigma_fraction,
             ),
             ("end state-of-charge sigma", self.end_soc_sigma),
+            ("current scale sigma", self.current_scale_sigma),
+            ("current offset sigma (A)", self.current_offset_sigma_a),
+            (
+                "cut-off curve sigma (V per cell)",
+                self.cutoff_curve_sigma_cell_v,
+            ),
+            ("voltage scale sigma", self.voltage_scale_sigma),
         ] {
             crate::curve::require_non_negative(what, v)?;
         }
@@ -426,6 +465,14 @@ pub struct OnlineEstimator {
     flags: u32,
     plan: Option<Plan>,
     prediction: Option<Prediction>,
+    /// Charge counted from the logged current since the first sample, A·s.
+    counted_as: f64,
+    /// Time over which the current was logged, s.
+    counted_s: f64,
+    /// Last accepted voltage, V.
+    last_voltage_v: f64,
+    /// A logged power has updated the extra power.
+    power_measured: bool,
 }
 
 impl OnlineEstimator {
@@ -489,6 +536,10 @@ impl OnlineEstimator {
             flags: Estimate::FLAG_NOT_INITIALISED,
             plan: None,
             prediction: None,
+            counted_as: 0.0,
+            counted_s: 0.0,
+            last_voltage_v: 0.0,
+            power_measured: false,
         })
     }
 
@@ -603,12 +654,17 @@ impl OnlineEstimator {
             }
             self.advance_plan(dt);
             self.time_update(dt, logged);
+            if let Some(i) = logged {
+                self.counted_as += i * dt;
+                self.counted_s += dt;
+            }
             self.voltage_update(sample.voltage_v, logged);
             if let Some(i) = logged {
                 self.power_update(sample.voltage_v * i);
             }
         }
         self.last_time_s = sample.time_s;
+        self.last_voltage_v = sample.voltage_v;
         self.samples_used = self.samples_used.saturating_add(1);
         self.current_a = match logged {
             Some(i) => i,
@@ -879,6 +935,7 @@ impl OnlineEstimator {
             return;
         }
         self.scalar_update(&h, y, sd * sd);
+        self.power_measured = true;
     }
 
     /// Joseph-form update with one scalar measurement.
@@ -1021,6 +1078,38 @@ impl OnlineEstimator {
         n
     }
 
+    /// The state moved by one sigma of each current-sensor error (scale, offset): what the
+    /// filter would hold had the sensor read high by that much (the charge counted too high by
+    /// it, the power measured in hover too high by it). Zero vectors before any current was
+    /// logged.
+    fn sensor_deltas(&self, x: &Vector) -> [Vector; 2] {
+        let c = &self.config;
+        let q_as = 3600.0 * self.pack.capacity_ah * x[CSCALE].max(0.05);
+        let mut scale = Vector::zeros();
+        let mut offset = Vector::zeros();
+        scale[SOC] = c.current_scale_sigma * self.counted_as.max(0.0) / q_as;
+        offset[SOC] = c.current_offset_sigma_a * self.counted_s / q_as;
+        if self.power_measured {
+            scale[PEXTRA] = -c.current_scale_sigma * (self.hover_power_w + x[PEXTRA]).max(0.0);
+            offset[PEXTRA] = -c.current_offset_sigma_a * self.last_voltage_v;
+        }
+        [scale, offset]
+    }
+
+    /// One sigma of the voltage the pack will show at the cut-off relative to the curve (and
+    /// its offset) where the filter is now, V at pack level: the curve's shape between the
+    /// state of charge now and `end_soc` ([`OnlineConfig::cutoff_curve_sigma_cell_v`]) and the
+    /// voltage sensor's scale times the voltage still to fall.
+    fn cutoff_shift_sigma_v(&self, x: &Vector, end_soc: f64) -> f64 {
+        let c = &self.config;
+        let ds = (x[SOC] - end_soc).max(0.0);
+        let shape =
+            c.cutoff_curve_sigma_cell_v * self.pack.cells * libm::sqrt((ds / 0.05).min(1.0));
+        let fall = (self.pack.ocv_v(x[SOC]) + x[VBIAS] - self.pack.cutoff_v).max(0.0);
+        let scale = c.voltage_scale_sigma * fall;
+        libm::sqrt(shape * shape + scale * scale)
+    }
+
     fn predict(&self, t: f64) -> Prediction {
         let x = self.x;
         // On the ground the question is how long the robot can hover once it takes off;
@@ -1039,6 +1128,7 @@ impl OnlineEstimator {
             Some(ch) => ch.l(),
             None => Matrix::from_diagonal(&self.p.diagonal().map(|d| libm::sqrt(d.max(0.0)))),
         };
+        let sensor = self.sensor_deltas(&x);
         let phase_seg = [SimSegment {
             flying: phase_flying,
             duration_s: f64::INFINITY,
@@ -1046,34 +1136,60 @@ impl OnlineEstimator {
             ends_at_cutoff: true,
         }];
         let mut flags = 0;
-        let run = |xs: &Vector, segs: &[SimSegment], plan_len: usize, flags: &mut u32| {
-            let r = predict::simulate(
-                &self.pack,
-                xs,
-                segs,
-                plan_len,
-                self.hover_power_w + xs[PEXTRA],
-                self.idle_power_w,
-            );
-            if r.truncated {
-                *flags |= Estimate::FLAG_TRUNCATED;
+        let run =
+            |xs: &Vector, segs: &[SimSegment], plan_len: usize, shift_v: f64, flags: &mut u32| {
+                let r = predict::simulate(
+                    &self.pack,
+                    xs,
+                    segs,
+                    plan_len,
+                    self.hover_power_w + xs[PEXTRA],
+                    self.idle_power_w,
+                    shift_v,
+                );
+                if r.truncated {
+                    *flags |= Estimate::FLAG_TRUNCATED;
+                }
+                r
+            };
+        // Variance of a forward integration's time (`pick` of its result) from the state's
+        // sigma points, the current sensor's errors and the voltage at the cut-off.
+        let spread = |segs: &[SimSegment],
+                      plan_len: usize,
+                      centre: &predict::SimResult,
+                      pick: &dyn Fn(&predict::SimResult) -> f64,
+                      flags: &mut u32| {
+            let mut var = 0.0;
+            let mut pair = |a: f64, b: f64| var += 0.25 * (a - b) * (a - b);
+            for j in 0..STATES {
+                let col = l.column(j).into_owned();
+                let a = pick(&run(&(x + col), segs, plan_len, 0.0, flags));
+                let b = pick(&run(&(x - col), segs, plan_len, 0.0, flags));
+                pair(a, b);
             }
-            r
+            for d in &sensor {
+                if d.iter().any(|v| *v != 0.0) {
+                    let a = pick(&run(&(x + d), segs, plan_len, 0.0, flags));
+                    let b = pick(&run(&(x - d), segs, plan_len, 0.0, flags));
+                    pair(a, b);
+                }
+            }
+            let shift = self.cutoff_shift_sigma_v(&x, centre.end_soc);
+            if shift > 0.0 {
+                let a = pick(&run(&x, segs, plan_len, shift, flags));
+                let b = pick(&run(&x, segs, plan_len, -shift, flags));
+                pair(a, b);
+            }
+            var
         };
-        let centre = run(&x, &phase_seg, 0, &mut flags);
+        let centre = run(&x, &phase_seg, 0, 0.0, &mut flags);
         if centre.unreachable_at_start {
             flags |= Estimate::FLAG_POWER_UNREACHABLE;
         }
-        let mut var = 0.0;
-        for j in 0..STATES {
-            let col = l.column(j).into_owned();
-            let a = run(&(x + col), &phase_seg, 0, &mut flags).total_s;
-            let b = run(&(x - col), &phase_seg, 0, &mut flags).total_s;
-            var += 0.25 * (a - b) * (a - b);
-        }
+        let var = spread(&phase_seg, 0, &centre, &|r| r.total_s, &mut flags);
         let mf = self.config.prediction_model_sigma_fraction * centre.total_s;
-        // The knee: the state of charge the cut-off comes at, times the time a full pack lasts
-        // at the power it will be reached at (the phase's; for a plan, hover).
+        // An extra uncertainty of the state of charge the cut-off comes at (0 by default),
+        // times the time a full pack lasts at the power it will be reached at.
         let knee_s = |p: f64| {
             self.config.end_soc_sigma * 3600.0 * self.pack.capacity_ah * x[CSCALE].max(0.05)
                 / (p / self.pack.ocv_v(x[SOC]).max(1e-3)).max(1e-6)
@@ -1092,14 +1208,8 @@ impl OnlineEstimator {
                 stop_soc: 0.0,
                 ends_at_cutoff: true,
             };
-            let c = run(&x, &segs[..=n], n, &mut flags);
-            let mut var = 0.0;
-            for j in 0..STATES {
-                let col = l.column(j).into_owned();
-                let a = run(&(x + col), &segs[..=n], n, &mut flags).plan_s;
-                let b = run(&(x - col), &segs[..=n], n, &mut flags).plan_s;
-                var += 0.25 * (a - b) * (a - b);
-            }
+            let c = run(&x, &segs[..=n], n, 0.0, &mut flags);
+            let var = spread(&segs[..=n], n, &c, &|r| r.plan_s, &mut flags);
             let mf = self.config.prediction_model_sigma_fraction * c.plan_s;
             // The knee matters when the plan ends at the cut-off (else the plan's clock does).
             let knee = if c.plan_completed && c.total_s > c.plan_s {

@@ -96,11 +96,14 @@ pub(super) struct SimResult {
     pub unreachable_at_start: bool,
     /// Stopped at [`MAX_SIM_STEPS`].
     pub truncated: bool,
+    /// State of charge where the integration stopped.
+    pub end_soc: f64,
 }
 
 /// Discharges the pack from state `x` through `segs`, at `hover_w` when flying and `idle_w`
-/// otherwise, until the terminal voltage reaches the cut-off, the pack cannot deliver the power,
-/// or the segments end. Midpoint rule in state-of-charge steps of at most [`SOC_STEP`]; the
+/// otherwise, until the terminal voltage reaches the cut-off (`pack.cutoff_v + cutoff_shift_v`:
+/// the band moves it by the uncertainty of the voltage the pack will show there), the pack
+/// cannot deliver the power, or the segments end. Midpoint rule in state-of-charge steps of at most [`SOC_STEP`]; the
 /// cut-off time is interpolated linearly in voltage within the step that crosses it.
 pub(super) fn simulate(
     pack: &Pack,
@@ -109,7 +112,9 @@ pub(super) fn simulate(
     plan_len: usize,
     hover_w: f64,
     idle_w: f64,
+    cutoff_shift_v: f64,
 ) -> SimResult {
+    let cutoff_v = pack.cutoff_v + cutoff_shift_v;
     let mut s = if x[SOC].is_finite() {
         x[SOC].clamp(0.0, 1.0)
     } else {
@@ -142,10 +147,10 @@ pub(super) fn simulate(
             let e = pack.ocv_v(s) - v1 + bias;
             let (i, ok) = pack.current_for_power(e, r, p);
             let v = e - i * r;
-            if !ok || v <= pack.cutoff_v {
+            if !ok || v <= cutoff_v {
                 if let Some((tp, vp)) = prev {
                     if ok && vp > v {
-                        t = tp + (vp - pack.cutoff_v) / (vp - v) * (t - tp);
+                        t = tp + (vp - cutoff_v) / (vp - v) * (t - tp);
                     }
                 } else if j == 0 && steps == 0 && !ok {
                     unreachable_at_start = true;
@@ -196,5 +201,6 @@ pub(super) fn simulate(
         plan_completed,
         unreachable_at_start,
         truncated,
+        end_soc: s,
     }
 }
