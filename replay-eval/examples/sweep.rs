@@ -56,6 +56,10 @@ fn config_from_env() -> estimator::online::OnlineConfig {
     for kv in spec.split(',').filter(|s| !s.is_empty()) {
         let (k, v) = kv.split_once('=').expect("key=value");
         let v: f64 = v.parse().expect("a number");
+        if k == "thrust_limit_end" {
+            c.thrust_limit_end = v != 0.0;
+            continue;
+        }
         let slot = match k {
             "voltage_sigma_v" => &mut c.voltage_sigma_v,
             "current_sigma_a" => &mut c.current_sigma_a,
@@ -75,6 +79,9 @@ fn config_from_env() -> estimator::online::OnlineConfig {
             "current_offset_sigma_a" => &mut c.current_offset_sigma_a,
             "cutoff_curve_sigma_cell_v" => &mut c.cutoff_curve_sigma_cell_v,
             "voltage_scale_sigma" => &mut c.voltage_scale_sigma,
+            "capacity_fade_sigma" => &mut c.capacity_fade_sigma,
+            "extra_power_thrust_share" => &mut c.extra_power_thrust_share,
+            "extra_power_thrust_share_sigma" => &mut c.extra_power_thrust_share_sigma,
             other => panic!("unknown key {other}"),
         };
         *slot = v;

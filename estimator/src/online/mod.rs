@@ -76,7 +76,7 @@ use nalgebra::{SMatrix, SVector};
 use crate::curve::require_positive;
 use crate::mission::{MissionOptions, Segment};
 use crate::{EstimateError, Params};
-use predict::{Pack, SimSegment};
+use predict::{Pack, SimSegment, ThrustEnd};
 
 /// Number of filter states.
 pub const STATES: usize = 6;
@@ -225,10 +225,28 @@ pub struct OnlineConfig {
     /// for the two independent points; below a quarter of the charge the learned curve is that
     /// prior's shape (`gap::battery::KNEE_FREE_SOC`), so it applies in full there.
     pub cutoff_curve_sigma_cell_v: f64,
+    /// Capacity the pack may have lost to age, not in the filter's capacity prior (one sigma,
+    /// a fraction): a consider parameter of the band (the charge left at every instant shrinks
+    /// by it, times the section's capacity), since the filter's curve offset absorbs a fade
+    /// rather than revealing it. Default 0.058: lithium packs are rated to 80 % of their
+    /// capacity at the end of their cycle life (300–500 cycles), and a pack anywhere in that
+    /// life, uniform over 0–20 % lost, has that standard deviation (0.2 / √12).
+    pub capacity_fade_sigma: f64,
     /// Scale error of the voltage sensor (one sigma, a fraction): the voltage still to fall
     /// from the open-circuit voltage now to the cut-off is off by it, which moves the cut-off
     /// the same way. Default 0.01: a 1 % resistor divider.
     pub voltage_scale_sigma: f64,
+    /// End the forward integration also where the rotors run out of thrust, when the
+    /// parameters carry the thrust limit (`[thrust_limit]`: the paper's `m_L`, measured per
+    /// rotor at the minimum battery voltage). Default true.
+    pub thrust_limit_end: bool,
+    /// Share of the learned power above the model that is thrust (what raises the voltage the
+    /// rotors run out of thrust at). Nothing in the samples splits a payload or a download
+    /// (all thrust) from control activity or losses the rig did not have (none): default 0.5,
+    /// the middle of 0..1, with [`Self::extra_power_thrust_share_sigma`] its spread.
+    pub extra_power_thrust_share: f64,
+    /// Standard deviation of that share: 0.29, a uniform share over 0..1 (`1/√12`).
+    pub extra_power_thrust_share_sigma: f64,
     /// An extra uncertainty of the state of charge at which the cut-off comes, as a fraction of
     /// the pack, added as `end_soc_sigma × (time a full pack lasts at the phase's power)`. Not
     /// a physical source (the ones above are): 0 by default; kept for a user who knows their
@@ -263,6 +281,10 @@ impl Default for OnlineConfig {
             current_offset_sigma_a: 0.2,
             cutoff_curve_sigma_cell_v: 0.042,
             voltage_scale_sigma: 0.01,
+            capacity_fade_sigma: 0.058,
+            thrust_limit_end: false,
+            extra_power_thrust_share: 1.0,
+            extra_power_thrust_share_sigma: 0.29,
             end_soc_sigma: 0.0,
         }
     }
@@ -330,6 +352,12 @@ impl OnlineConfig {
                 self.cutoff_curve_sigma_cell_v,
             ),
             ("voltage scale sigma", self.voltage_scale_sigma),
+            ("capacity fade sigma", self.capacity_fade_sigma),
+            ("extra power thrust share", self.extra_power_thrust_share),
+            (
+                "extra power thrust share sigma",
+                self.extra_power_thrust_share_sigma,
+            ),
         ] {
             crate::curve::require_non_negative(what, v)?;
         }
@@ -449,6 +477,7 @@ struct Plan {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct OnlineEstimator {
     pack: Pack,
+    thrust_end: Option<ThrustEnd>,
     hover_power_w: f64,
     idle_power_w: f64,
     config: OnlineConfig,
@@ -518,8 +547,14 @@ impl OnlineEstimator {
             battery.validate()?;
         }
         let pack = Pack::new(&battery);
+        let thrust_end = if config.thrust_limit_end {
+            thrust_end(params, m_t)
+        } else {
+            None
+        };
         Ok(Self {
             pack,
+            thrust_end,
             hover_power_w: hover,
             idle_power_w: idle,
             config: *config,
@@ -1082,7 +1117,7 @@ impl OnlineEstimator {
     /// filter would hold had the sensor read high by that much (the charge counted too high by
     /// it, the power measured in hover too high by it). Zero vectors before any current was
     /// logged.
-    fn sensor_deltas(&self, x: &Vector) -> [Vector; 2] {
+    fn sensor_deltas(&self, x: &Vector) -> [Vector; 3] {
         let c = &self.config;
         let q_as = 3600.0 * self.pack.capacity_ah * x[CSCALE].max(0.05);
         let mut scale = Vector::zeros();
@@ -1093,7 +1128,16 @@ impl OnlineEstimator {
             scale[PEXTRA] = -c.current_scale_sigma * (self.hover_power_w + x[PEXTRA]).max(0.0);
             offset[PEXTRA] = -c.current_offset_sigma_a * self.last_voltage_v;
         }
-        [scale, offset]
+        // A used pack's capacity: the charge already counted stays, the pack holds
+        // `capacity_fade_sigma` of its capacity less, so the charge left shrinks by all of it:
+        // soc' = 1 − (1 − soc)/(1 − f), c' = c·(1 − f).
+        let mut fade = Vector::zeros();
+        let f = c.capacity_fade_sigma.clamp(0.0, 0.5);
+        if f > 0.0 {
+            fade[CSCALE] = -f * x[CSCALE];
+            fade[SOC] = (1.0 - (1.0 - x[SOC]) / (1.0 - f)) - x[SOC];
+        }
+        [scale, offset, fade]
     }
 
     /// One sigma of the voltage the pack will show at the cut-off relative to the curve (and
@@ -1107,7 +1151,39 @@ impl OnlineEstimator {
             c.cutoff_curve_sigma_cell_v * self.pack.cells * libm::sqrt((ds / 0.05).min(1.0));
         let fall = (self.pack.ocv_v(x[SOC]) + x[VBIAS] - self.pack.cutoff_v).max(0.0);
         let scale = c.voltage_scale_sigma * fall;
-        libm::sqrt(shape * shape + scale * scale)
+        // Where the rotors' thrust sets the end, the limit's own uncertainty moves the voltage
+        // it comes at by `V·σ_T / (k·T_L)`.
+        // The share of the power above the model that is thrust is not known either (a payload,
+        // a download: all of it; control activity, losses the rig did not have: none of it):
+        // its standard deviation moves the voltage by the floor's slope in it.
+        let (limit, share) = self.thrust_end.map_or((0.0, 0.0), |t| {
+            let s = c.extra_power_thrust_share;
+            let ds = c.extra_power_thrust_share_sigma;
+            let v = t.floor_v(t.thrust_g(x[PEXTRA], s));
+            if v > self.pack.cutoff_v {
+                let hi = t.floor_v(t.thrust_g(x[PEXTRA], s + ds));
+                let lo = t.floor_v(t.thrust_g(x[PEXTRA], s - ds));
+                (
+                    v * t.limit_sigma_g / (t.exponent * t.limit_g),
+                    0.5 * (hi - lo.max(self.pack.cutoff_v)).abs(),
+                )
+            } else {
+                (0.0, 0.0)
+            }
+        });
+        libm::sqrt(shape * shape + scale * scale + limit * limit + share * share)
+    }
+
+    /// One sigma of a remaining time from the power draw wandering over the `flying_s` still to
+    /// fly, s: the filter's own random walk of the extra power
+    /// ([`OnlineConfig::extra_power_drift_fraction_per_sqrt_s`]) carried forward — the mean of
+    /// a random walk over `T` has the standard deviation `q·√(T/3)` — and the time lost to a
+    /// power that much higher, `T·σ_P / P`.
+    fn power_wander_s(&self, flying_s: f64, x: &Vector) -> f64 {
+        let t = flying_s.max(0.0);
+        let q = self.config.extra_power_drift_fraction_per_sqrt_s * self.hover_power_w;
+        let sigma_p = q * libm::sqrt(t / 3.0);
+        t * sigma_p / self.power_w(FlightPhase::Hover, x)
     }
 
     fn predict(&self, t: f64) -> Prediction {
@@ -1138,14 +1214,20 @@ impl OnlineEstimator {
         let mut flags = 0;
         let run =
             |xs: &Vector, segs: &[SimSegment], plan_len: usize, shift_v: f64, flags: &mut u32| {
+                let floor_v = self.thrust_end.map_or(0.0, |t| {
+                    t.floor_v(t.thrust_g(xs[PEXTRA], self.config.extra_power_thrust_share))
+                });
                 let r = predict::simulate(
                     &self.pack,
                     xs,
                     segs,
                     plan_len,
-                    self.hover_power_w + xs[PEXTRA],
-                    self.idle_power_w,
-                    shift_v,
+                    &predict::SimLoad {
+                        hover_w: self.hover_power_w + xs[PEXTRA],
+                        idle_w: self.idle_power_w,
+                        fly_floor_v: floor_v,
+                        cutoff_shift_v: shift_v,
+                    },
                 );
                 if r.truncated {
                     *flags |= Estimate::FLAG_TRUNCATED;
@@ -1187,7 +1269,10 @@ impl OnlineEstimator {
             flags |= Estimate::FLAG_POWER_UNREACHABLE;
         }
         let var = spread(&phase_seg, 0, &centre, &|r| r.total_s, &mut flags);
-        let mf = self.config.prediction_model_sigma_fraction * centre.total_s;
+        let mf = libm::sqrt(
+            (self.config.prediction_model_sigma_fraction * centre.total_s).powi(2)
+                + self.power_wander_s(centre.plan_flying_s, &x).powi(2),
+        );
         // An extra uncertainty of the state of charge the cut-off comes at (0 by default),
         // times the time a full pack lasts at the power it will be reached at.
         let knee_s = |p: f64| {
@@ -1210,7 +1295,10 @@ impl OnlineEstimator {
             };
             let c = run(&x, &segs[..=n], n, 0.0, &mut flags);
             let var = spread(&segs[..=n], n, &c, &|r| r.plan_s, &mut flags);
-            let mf = self.config.prediction_model_sigma_fraction * c.plan_s;
+            let mf = libm::sqrt(
+                (self.config.prediction_model_sigma_fraction * c.plan_s).powi(2)
+                    + self.power_wander_s(c.plan_flying_s, &x).powi(2),
+            );
             // The knee matters when the plan ends at the cut-off (else the plan's clock does).
             let knee = if c.plan_completed && c.total_s > c.plan_s {
                 0.0
@@ -1237,4 +1325,48 @@ impl OnlineEstimator {
             flags,
         }
     }
+}
+
+/// The thrust-limit end of a robot of take-off mass `m_t_kg` (eq. 1) from the parameters'
+/// thrust limit, when they have one. The exponent `k` of the maximum thrust against the voltage
+/// comes from the rig: the top of the thrust–power sweep at the curve's supply voltage against
+/// the limit at its voltage (both measured maxima when the sweep ran to the limit, as the
+/// paper's does); without a usable pair, 2 (an ideal propeller at full throttle: speed ∝
+/// voltage, thrust ∝ speed²).
+fn thrust_end(params: &Params, m_t_kg: f64) -> Option<ThrustEnd> {
+    use crate::PowerCurve;
+    let l = params.thrust_limit?;
+    let n = f64::from(params.rotor_count.max(1));
+    if !(l.per_rotor_g > 0.0 && l.supply_voltage_v > 0.0 && l.per_rotor_g.is_finite()) {
+        return None;
+    }
+    let curve = &params.curve;
+    let top_g = curve.valid_range_g().1;
+    let exponent = match curve.supply_voltage_v() {
+        Some(v) if v > 1.05 * l.supply_voltage_v && top_g > 1.05 * l.per_rotor_g => {
+            (libm::log(top_g / l.per_rotor_g) / libm::log(v / l.supply_voltage_v)).clamp(1.0, 3.0)
+        }
+        _ => 2.0,
+    };
+    let hover_g = m_t_kg * 1000.0 / n;
+    let (lo, hi) = curve.valid_range_g();
+    let a = (hover_g - 2.0).clamp(lo, hi);
+    let b = (hover_g + 2.0).clamp(lo, hi);
+    let slope = if b > a {
+        (curve.eval_unchecked(b) - curve.eval_unchecked(a)) / (b - a)
+    } else {
+        0.0
+    };
+    let watts_per_g = slope * n;
+    if !(watts_per_g.is_finite() && watts_per_g > 0.0 && hover_g > 0.0) {
+        return None;
+    }
+    Some(ThrustEnd {
+        limit_g: l.per_rotor_g,
+        limit_sigma_g: l.uncertainty_g.max(0.0),
+        limit_v: l.supply_voltage_v,
+        exponent,
+        hover_g,
+        watts_per_g,
+    })
 }
