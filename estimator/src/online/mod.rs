@@ -1269,9 +1269,9 @@ impl OnlineEstimator {
             flags |= Estimate::FLAG_POWER_UNREACHABLE;
         }
         let var = spread(&phase_seg, 0, &centre, &|r| r.total_s, &mut flags);
-        let mf = libm::sqrt(
-            (self.config.prediction_model_sigma_fraction * centre.total_s).powi(2)
-                + self.power_wander_s(centre.plan_flying_s, &x).powi(2),
+        let mf = hypot(
+            self.config.prediction_model_sigma_fraction * centre.total_s,
+            self.power_wander_s(centre.plan_flying_s, &x),
         );
         // An extra uncertainty of the state of charge the cut-off comes at (0 by default),
         // times the time a full pack lasts at the power it will be reached at.
@@ -1295,9 +1295,9 @@ impl OnlineEstimator {
             };
             let c = run(&x, &segs[..=n], n, 0.0, &mut flags);
             let var = spread(&segs[..=n], n, &c, &|r| r.plan_s, &mut flags);
-            let mf = libm::sqrt(
-                (self.config.prediction_model_sigma_fraction * c.plan_s).powi(2)
-                    + self.power_wander_s(c.plan_flying_s, &x).powi(2),
+            let mf = hypot(
+                self.config.prediction_model_sigma_fraction * c.plan_s,
+                self.power_wander_s(c.plan_flying_s, &x),
             );
             // The knee matters when the plan ends at the cut-off (else the plan's clock does).
             let knee = if c.plan_completed && c.total_s > c.plan_s {
@@ -1369,4 +1369,9 @@ fn thrust_end(params: &Params, m_t_kg: f64) -> Option<ThrustEnd> {
         hover_g,
         watts_per_g,
     })
+}
+
+/// `√(a² + b²)` (`f64::hypot` needs std).
+fn hypot(a: f64, b: f64) -> f64 {
+    libm::sqrt(a * a + b * b)
 }
