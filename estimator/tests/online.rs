@@ -792,19 +792,29 @@ fn the_thrust_limit_ends_the_flight_where_the_rotors_run_out() {
         thrust_limit_end: true,
         ..OnlineConfig::default()
     };
-    let errors = |params: &estimator::Params, config: &OnlineConfig| {
+    let errors_with = |params: &estimator::Params, config: &OnlineConfig, current: bool| {
         let mut est = OnlineEstimator::new(params, &file_battery(), config).unwrap();
         let f = fly(
             truth_pack,
             est.idle_power_w(),
             est.model_hover_power_w(),
             10.0,
-            true,
+            current,
             7,
         );
         let out = run(&f, &mut est);
         [0.25, 0.5, 0.75].map(|frac| remaining_error(&f, &out, frac))
     };
+    let errors =
+        |params: &estimator::Params, config: &OnlineConfig| errors_with(params, config, true);
+    // Without a logged current the end comes at the model's hover thrust: the same here.
+    let voltage_only = errors_with(&with_limit, &config, false);
+    for e in voltage_only {
+        assert!(
+            e.abs() < 0.05,
+            "voltage only, with the limit: {voltage_only:?}"
+        );
+    }
     let ended = errors(&with_limit, &config);
     let without = errors(&params(), &config);
     let switched_off = errors(&with_limit, &OnlineConfig::default());

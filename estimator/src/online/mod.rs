@@ -238,12 +238,18 @@ pub struct OnlineConfig {
     pub voltage_scale_sigma: f64,
     /// End the forward integration also where the rotors run out of thrust, when the
     /// parameters carry the thrust limit (`[thrust_limit]`: the paper's `m_L`, measured per
-    /// rotor at the minimum battery voltage). Default true.
+    /// rotor at the minimum battery voltage). Default false: on `replay-eval`'s flight sets it
+    /// lowers the median error on some and raises it on others, and makes some flights worse
+    /// (README, "How long can it still fly?").
     pub thrust_limit_end: bool,
     /// Share of the learned power above the model that is thrust (what raises the voltage the
-    /// rotors run out of thrust at). Nothing in the samples splits a payload or a download
-    /// (all thrust) from control activity or losses the rig did not have (none): default 0.5,
-    /// the middle of 0..1, with [`Self::extra_power_thrust_share_sigma`] its spread.
+    /// rotors run out of thrust at), once a logged current has measured that power (without a
+    /// current the extra power is inferred from the voltage, where it also stands for
+    /// resistance and capacity: the thrust end then uses the model's hover thrust). Nothing in
+    /// the samples splits a payload or a download (all thrust) from control activity or losses
+    /// the rig did not have (none): default 1.0, chosen on `replay-eval`'s tuning families
+    /// over 0.5 (the middle of 0..1), with [`Self::extra_power_thrust_share_sigma`] its
+    /// spread.
     pub extra_power_thrust_share: f64,
     /// Standard deviation of that share: 0.29, a uniform share over 0..1 (`1/√12`).
     pub extra_power_thrust_share_sigma: f64,
@@ -1140,6 +1146,16 @@ impl OnlineEstimator {
         [scale, offset, fade]
     }
 
+    /// Share of the extra power taken as thrust: the configured one once a logged current
+    /// has measured the power, else none.
+    fn thrust_share(&self) -> f64 {
+        if self.power_measured {
+            self.config.extra_power_thrust_share
+        } else {
+            0.0
+        }
+    }
+
     /// One sigma of the voltage the pack will show at the cut-off relative to the curve (and
     /// its offset) where the filter is now, V at pack level: the curve's shape between the
     /// state of charge now and `end_soc` ([`OnlineConfig::cutoff_curve_sigma_cell_v`]) and the
@@ -1157,7 +1173,7 @@ impl OnlineEstimator {
         // a download: all of it; control activity, losses the rig did not have: none of it):
         // its standard deviation moves the voltage by the floor's slope in it.
         let (limit, share) = self.thrust_end.map_or((0.0, 0.0), |t| {
-            let s = c.extra_power_thrust_share;
+            let s = self.thrust_share();
             let ds = c.extra_power_thrust_share_sigma;
             let v = t.floor_v(t.thrust_g(x[PEXTRA], s));
             if v > self.pack.cutoff_v {
@@ -1215,7 +1231,7 @@ impl OnlineEstimator {
         let run =
             |xs: &Vector, segs: &[SimSegment], plan_len: usize, shift_v: f64, flags: &mut u32| {
                 let floor_v = self.thrust_end.map_or(0.0, |t| {
-                    t.floor_v(t.thrust_g(xs[PEXTRA], self.config.extra_power_thrust_share))
+                    t.floor_v(t.thrust_g(xs[PEXTRA], self.thrust_share()))
                 });
                 let r = predict::simulate(
                     &self.pack,
