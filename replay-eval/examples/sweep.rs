@@ -47,7 +47,8 @@ fn main() {
     }
 }
 
-/// `SWEEP_CFG="capacity_scale_sigma=0.1,voltage_sigma_v=0.05"` overrides the defaults.
+/// `SWEEP_CFG="capacity_scale_sigma=0.1,voltage_sigma_v=0.05"` overrides the defaults
+/// (`thrust_limit_end=1` turns the thrust-limit end on).
 fn config_from_env() -> estimator::online::OnlineConfig {
     let mut c = estimator::online::OnlineConfig::default();
     let Ok(spec) = std::env::var("SWEEP_CFG") else {
