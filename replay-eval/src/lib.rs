@@ -319,6 +319,10 @@ pub struct PreparedScenario {
     pub flights: Vec<(Flight, estimator::online::BatteryModel)>,
     /// Held-out flights that cannot be replayed (no training flight of their pack).
     pub skipped: Vec<SkippedFlight>,
+    /// The online band's curve-shape uncertainty for each flight in [`Self::flights`], V per
+    /// cell, from its pack's learned section (`BatterySection::curve_shape_sigma_cell_v`:
+    /// the fit's RMSE and the prior's pull), or `None` to keep the configured value.
+    pub curve_sigma_cell_v: Vec<Option<f64>>,
 }
 
 /// Flies a scenario's training and held-out flights and learns its packs (steps 1–3 of the
@@ -381,6 +385,7 @@ pub fn prepare_scenario(family: &Family, seed: u64) -> Result<PreparedScenario, 
     let condition = Condition::draw(seed);
     let effect = condition.effect();
     let mut flights = Vec::new();
+    let mut curve_sigma = Vec::new();
     let mut skipped = Vec::new();
     for (k, p) in held_plans.iter().enumerate() {
         let mut plan = p.clone();
@@ -422,6 +427,10 @@ pub fn prepare_scenario(family: &Family, seed: u64) -> Result<PreparedScenario, 
             pack: id.clone(),
             message: m,
         })?;
+        curve_sigma.push(
+            (section.fit_rmse_cell_v.is_some() || section.curve_prior_sigma_cell_v.is_some())
+                .then(|| section.curve_shape_sigma_cell_v(0.0)),
+        );
         flights.push((flight, battery));
     }
     let thrust_limit = train
@@ -437,6 +446,7 @@ pub fn prepare_scenario(family: &Family, seed: u64) -> Result<PreparedScenario, 
         packs,
         flights,
         skipped,
+        curve_sigma_cell_v: curve_sigma,
     })
 }
 
@@ -455,8 +465,12 @@ impl PreparedScenario {
 pub fn replay_scenario(prepared: &PreparedScenario, config: &OnlineConfig) -> ScenarioOutcome {
     let mut flights = Vec::new();
     let mut skipped = prepared.skipped.clone();
-    for (flight, battery) in &prepared.flights {
-        let online = FileOnline::new(prepared.online_params(), *battery, *config);
+    for (k, (flight, battery)) in prepared.flights.iter().enumerate() {
+        let mut config = *config;
+        if let Some(Some(s)) = prepared.curve_sigma_cell_v.get(k) {
+            config.cutoff_curve_sigma_cell_v = config.cutoff_curve_sigma_cell_v.max(*s);
+        }
+        let online = FileOnline::new(prepared.online_params(), *battery, config);
         let rc = ReplayConfig {
             params: prepared.params,
             online: Some(&online),
