@@ -619,6 +619,7 @@ fn band_only(f: impl Fn(&mut OnlineConfig)) -> OnlineConfig {
         cutoff_curve_sigma_cell_v: 0.0,
         voltage_scale_sigma: 0.0,
         capacity_fade_sigma: 0.0,
+        end_soc_sigma: 0.0,
         ..OnlineConfig::default()
     };
     f(&mut c);

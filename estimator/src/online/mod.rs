@@ -204,15 +204,18 @@ pub struct OnlineConfig {
     /// counted so far and the power measured in hover are both off by it, and nothing in the
     /// flight tells it from a capacity or a power draw, so the band carries it (a consider
     /// parameter: a pair of forward integrations with the count and the learned power moved by
-    /// one sigma). Default 0.03: an uncalibrated hobby power module — shunt tolerance and the
-    /// ADC reference (an uncalibrated shunt wattmeter's maximum relative error is about 3 %,
-    /// DFRobot SEN0291's notes), or a Hall sensor's sensitivity trim. A sensor calibrated
-    /// against a meter: 0.002–0.005. Only used while the current is logged.
+    /// one sigma). Default 0 (off, two forward integrations saved): on `replay-eval`'s sets
+    /// [`Self::end_soc_sigma`] already covers what it adds (README, "How long can it still
+    /// fly?"). For a band that names it: 0.03, an uncalibrated hobby power module — shunt
+    /// tolerance and the ADC reference (an uncalibrated shunt wattmeter's maximum relative
+    /// error is about 3 %, DFRobot SEN0291's notes), or a Hall sensor's sensitivity trim; a
+    /// sensor calibrated against a meter: 0.002–0.005. Only used while the current is logged.
     pub current_scale_sigma: f64,
     /// Zero-current offset of the current sensor (one sigma), A: counted over the time the
-    /// current was logged, and times the voltage in the measured power. Default 0.2 A: a Hall
-    /// power module's quiescent-output trim and drift (tens of mA to a few tenths of an ampere
-    /// on 50–100 A parts); a lab shunt logger: 0.01–0.02 A.
+    /// current was logged, and times the voltage in the measured power. Default 0 (off, as
+    /// [`Self::current_scale_sigma`]); for a band that names it: 0.2 A, a Hall power module's
+    /// quiescent-output trim and drift (tens of mA to a few tenths of an ampere on 50–100 A
+    /// parts); a lab shunt logger: 0.01–0.02 A.
     pub current_offset_sigma_a: f64,
     /// Uncertainty of the open-circuit curve's shape between the state of charge now (where
     /// the curve offset is estimated) and where the loaded voltage will reach the cut-off, V
@@ -232,9 +235,10 @@ pub struct OnlineConfig {
     /// Capacity the pack may have lost to age, not in the filter's capacity prior (one sigma,
     /// a fraction): a consider parameter of the band (the charge left at every instant shrinks
     /// by it, times the section's capacity), since the filter's curve offset absorbs a fade
-    /// rather than revealing it. Default 0.058: lithium packs are rated to 80 % of their
-    /// capacity at the end of their cycle life (300–500 cycles), and a pack anywhere in that
-    /// life, uniform over 0–20 % lost, has that standard deviation (0.2 / √12).
+    /// rather than revealing it. Default 0 (off, as [`Self::current_scale_sigma`]); for a band
+    /// that names it: 0.058, since lithium packs are rated to 80 % of their capacity at the end
+    /// of their cycle life (300–500 cycles), and a pack anywhere in that life, uniform over
+    /// 0–20 % lost, has that standard deviation (0.2 / √12).
     pub capacity_fade_sigma: f64,
     /// Scale error of the voltage sensor (one sigma, a fraction): the voltage still to fall
     /// from the open-circuit voltage now to the cut-off is off by it, which moves the cut-off
@@ -259,12 +263,13 @@ pub struct OnlineConfig {
     pub extra_power_thrust_share_sigma: f64,
     /// An extra uncertainty of the state of charge at which the cut-off comes, as a fraction of
     /// the pack, added in quadrature as `end_soc_sigma × (time a full pack lasts at the phase's
-    /// power)`: what the named sources above leave out (the model's own misses: a knee the
-    /// curve lacks, cold, a chemistry's low end). Not a physical source. Default 0.04, chosen
-    /// on `replay-eval`'s tuning families (seeds 0–23) only, as the value that brings their
-    /// coverage back to 70 %, where the hand-set 0.08 alone had it before the named sources
-    /// (0.02–0.03: 68 %, 0.05: 73 %, 0.06: 75 %, 0.08: 80 %). Without it the held-out families
-    /// were covered less than before (README, "How long can it still fly?").
+    /// power)`: what the named sources above leave out or are off for (the model's own misses:
+    /// a knee the curve lacks, cold, a pack's fade, the current sensor). Not a physical source.
+    /// Default 0.08, sized on `replay-eval`'s tuning families' coverage (seeds 0–23: 72 % with
+    /// the defaults). With the current-sensor and fade terms on (0.03, 0.2 A, 0.058) 0.04 gives
+    /// the same coverage there, for six more forward integrations per prediction and no
+    /// coverage gained on held-out sets; without this term the held-out families are covered
+    /// less than with it (README, "How long can it still fly?").
     pub end_soc_sigma: f64,
 }
 
@@ -291,15 +296,15 @@ impl Default for OnlineConfig {
             gap_s: 10.0,
             prediction_interval_s: 1.0,
             prediction_model_sigma_fraction: 0.02,
-            current_scale_sigma: 0.03,
-            current_offset_sigma_a: 0.2,
+            current_scale_sigma: 0.0,
+            current_offset_sigma_a: 0.0,
             cutoff_curve_sigma_cell_v: 0.042,
             voltage_scale_sigma: 0.01,
-            capacity_fade_sigma: 0.058,
+            capacity_fade_sigma: 0.0,
             thrust_limit_end: false,
             extra_power_thrust_share: 1.0,
             extra_power_thrust_share_sigma: 0.29,
-            end_soc_sigma: 0.04,
+            end_soc_sigma: 0.08,
         }
     }
 }
