@@ -1302,7 +1302,7 @@ impl OnlineEstimator {
             self.config.prediction_model_sigma_fraction * centre.total_s,
             self.power_wander_s(centre.plan_flying_s, &x),
         );
-        // An extra uncertainty of the state of charge the cut-off comes at (0 by default),
+        // An extra uncertainty of the state of charge the cut-off comes at (`end_soc_sigma`),
         // times the time a full pack lasts at the power it will be reached at.
         let knee_s = |p: f64| {
             self.config.end_soc_sigma * 3600.0 * self.pack.capacity_ah * x[CSCALE].max(0.05)
