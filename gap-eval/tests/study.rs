@@ -63,14 +63,27 @@ fn a_withheld_effect_opens_a_held_out_gap() {
 }
 
 /// The battery fit runs twice, the second round counting the state of charge on the first
-/// round's curve. On tuning seed 39 (nmc/fc-10hz, Peukert withheld) the second round counts
-/// 17–36 % of one pack's samples more than 5 % past empty against ≤ 1 % in the first, its curve
-/// collapses (flat knots, the discharge taken by a slow RC pair), and the held-out endurance
-/// error after the diagnosis is 23.1 %. Keeping the first round when the second counts more than
-/// 8 % more samples past empty (commit 17badd5 on branch `wt-s6-gapcurve`) brings it to 17.8 %
-/// and made no prediction worse on tuning seeds 0–39, all families 0–39 or fresh held-out
-/// 9500–9539, but 2 of 100 held-out predictions on seeds 5000–5099 worse by 0.7 pp (5067, 5087;
-/// 14 better), so it was reverted. Ignored until a fix passes that rule (issue 9).
+/// round's curve. On tuning seed 39 (nmc/fc-10hz, Peukert withheld) the first round's curve of
+/// pack nmc-B is flat from 0.45 of the charge up; three of its flights, resting at 4.15–4.16 V
+/// per cell, read a start near 0.35 on it, the count then runs them 0.4–0.5 of the charge past
+/// empty, the second round's curve collapses (flat knots, the discharge taken by a slow RC
+/// pair), and the held-out endurance error after the diagnosis is 23.1 %.
+///
+/// Tried and reverted (issue 9, each made some held-out predictions worse by more than 0.25 pp):
+/// keeping the first round when the second counts 8 % more samples past empty (17.8 %; commit
+/// 17badd5); taking a start the count runs more than 30 % past empty from the count, and keeping
+/// the first round when the second round's own curve still reads such starts (17.8 %; commit
+/// d5fff1d on branch `wt-s7-gapsoc`, 2 of 100 worse on held-out seeds 5000-5099, 1 of 40 on
+/// 9500-9539, 1 of 60 on 9700-9759). Also tried (commit 980f134 on branch `wt-s7-gapsoc`,
+/// session 7 helper gapsoc2): when the first round's count runs a flight more than 30 % past
+/// empty, refit with one additive voltage-sensor offset per flight (zero-mean prior σ 0.04 V per
+/// cell, the offsets summing to zero) and a prior on R₀ from the take-off step, each training
+/// flight's start read through its round-1 offset: seed 39 8.0 %, tuning seeds 8/26/30/32 from
+/// ~50 % to 9-14 %, 0 worse on tuning 0-39, all 0-39, 9500-9539 and fresh 10300-10359, but 1 of
+/// 100 worse on 5000-5099 (5039 lfp/bb-50hz 0.73 → 1.53 %). The learned offsets reach
+/// 0.2-0.4 V per cell (5-10 σ) on lab-1hz logs, so they absorb model misfit, not only sensor
+/// error: their prior is swamped by hundreds of rows per flight. Ignored until a fix passes
+/// that rule.
 #[ignore = "fails until the battery fit stops a diverging second round without making a held-out prediction worse (issue 9)"]
 #[test]
 fn a_diverging_second_round_of_the_battery_fit_is_not_kept() {
@@ -79,6 +92,53 @@ fn a_diverging_second_round_of_the_battery_fit_is_not_kept() {
     assert_eq!(s.family, "nmc/fc-10hz/paper");
     let after = s.heldout_endurance_after_pct.unwrap();
     assert!(after < 20.0, "held-out endurance error after {after} %");
+}
+
+/// The battery fit says when its state of charge is inconsistent: on tuning seed 39 (above) the
+/// note of pack nmc-B's fit marks it unreliable; on tuning seed 2 (nmc/lab-1hz, no such
+/// flights) no fit carries the mark.
+#[test]
+fn a_count_run_far_past_empty_marks_the_learned_battery_unreliable() {
+    let families = select_families("tuning").unwrap();
+    let notes = |seed: u64| -> Vec<(String, String)> {
+        let family = gap_eval::family_of(seed, &families);
+        let set = generate(&family, &flight_sim::draw_effect(seed), seed);
+        let records = |fs: &[flight_sim::SimFlight]| -> Vec<gap::flight::FlightRecord> {
+            read_back(fs)
+                .unwrap()
+                .iter()
+                .map(|f| gap::logs::record_from_log(f).unwrap())
+                .collect()
+        };
+        let (train, heldout) = (records(&set.train), records(&set.heldout));
+        let curve = rig_curve(&set.rig).unwrap();
+        let d = gap::diagnose::diagnose(
+            gap::model::Model {
+                curve: &curve,
+                rotor_count: set.rig.rotor_count,
+            },
+            &train.iter().collect::<Vec<_>>(),
+            &heldout.iter().collect::<Vec<_>>(),
+            &gap::diagnose::DiagnoseOptions::default(),
+        )
+        .unwrap();
+        d.batteries
+            .iter()
+            .map(|b| (b.battery_type.clone(), b.note.clone()))
+            .collect()
+    };
+    let flagged = notes(39);
+    assert!(
+        flagged
+            .iter()
+            .any(|(t, n)| t == "nmc-B" && n.contains("UNRELIABLE")),
+        "{flagged:?}"
+    );
+    let clean = notes(2);
+    assert!(
+        clean.iter().all(|(_, n)| !n.contains("UNRELIABLE")),
+        "{clean:?}"
+    );
 }
 
 /// Issue 9's targets on the held-out families (run with `--ignored`; expensive). With the
