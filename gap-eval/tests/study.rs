@@ -82,8 +82,19 @@ fn a_withheld_effect_opens_a_held_out_gap() {
 /// ~50 % to 9-14 %, 0 worse on tuning 0-39, all 0-39, 9500-9539 and fresh 10300-10359, but 1 of
 /// 100 worse on 5000-5099 (5039 lfp/bb-50hz 0.73 → 1.53 %). The learned offsets reach
 /// 0.2-0.4 V per cell (5-10 σ) on lab-1hz logs, so they absorb model misfit, not only sensor
-/// error: their prior is swamped by hundreds of rows per flight. Ignored until a fix passes
-/// that rule.
+/// error: their prior is swamped by hundreds of rows per flight. The same with the count capped
+/// at a full pack in the trigger (commit dd0662c, helper gapsoc3: 5039's trigger was a count
+/// beyond the rated charge from a start read full, the count's error) is 0 worse on all six
+/// gap-eval sets (tuning 0-39, all 0-39, 5000-5099, 9500-9539, 10300-10359, fresh
+/// 10500-10559), but flown by the in-flight estimator (issue 14, `replay-eval`'s sweep, flight
+/// by flight at half the flight against main) it makes 6 held-out flights worse by more than
+/// 0.25 pp and 5 better: tuning 0-23 1/1, 9100-9135 0/2, 9800-9835 1/0, 9900-9935 1/1 (9908
+/// lihv-A, cold: −13.6 → −23.8 %), fresh 10700-10735 3/1 (10732 lipo-B, 22 % fade: 4.9 → 16.8
+/// and 6.0 → 10.4 %). Where it fires there, main's curve had collapsed and `replay` flew the
+/// built-in LiPo table instead; the refit's curve is real but its R₀ came out 0 (9908) or the
+/// section's capacity grew by 10 % (10732, the collapsed curve's high mean voltage had shrunk it,
+/// which offset part of the fade the filter does not learn). Ignored until a fix passes that rule
+/// for both the diagnosis and the estimator.
 #[ignore = "fails until the battery fit stops a diverging second round without making a held-out prediction worse (issue 9)"]
 #[test]
 fn a_diverging_second_round_of_the_battery_fit_is_not_kept() {
