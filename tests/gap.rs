@@ -144,6 +144,68 @@ fn crazyflie_with_the_learned_battery() {
     }
 }
 
+/// How close issue 9's Crazyflie aim (held-out voltage RMSE below 0.08 V) is to what the data
+/// allow a prediction made before take-off. The loaded voltage's drop below the resting start
+/// voltage, in 3 s windows from 5 s into each flight, is fitted by least squares on the start
+/// voltage, time, time² and climb rate over all 90 flights at once (the fit is tested on the
+/// flights it was fitted to, so it flatters itself). What is left is almost all one constant per
+/// flight: measured 0.073 V between flights against 0.020 V within one. A flight's constant is
+/// its pack's sag under load (0.39–0.73 V 5 s in, the dataset names no pack), which nothing
+/// logged before take-off reveals, so any prediction from the rest voltage carries it: with
+/// 0.07 V of it, 0.08 V leaves about 0.04 V for every other error.
+#[test]
+fn crazyflie_flights_differ_by_a_sag_no_log_reveals_before_take_off() {
+    let set = flightlog::FlightSet::read(&shared_path("crazyflie")).unwrap();
+    assert_eq!(set.flights.len(), 90);
+    // Rows: (flight, [1, v0, t, t², climb rate], drop).
+    let mut rows: Vec<(usize, [f64; 5], f64)> = Vec::new();
+    for (k, f) in set.flights.iter().enumerate() {
+        let s = &f.samples;
+        let (v, z, t) = (&s.voltage_v, s.altitude_m.as_ref().unwrap(), &s.time_s);
+        let v0 = v[..20].iter().sum::<f64>() / 20.0;
+        let win = 300; // 3 s at 100 Hz
+        let mut a = 500; // 5 s in
+        while a + win < v.len() {
+            let vw = v[a..a + win].iter().sum::<f64>() / win as f64;
+            let tw = t[a] - t[0];
+            let climb = (z[a + win - 1] - z[a]) / (t[a + win - 1] - t[a]);
+            rows.push((k, [1.0, v0, tw, tw * tw, climb], v0 - vw));
+            a += win;
+        }
+    }
+    let m = 5;
+    let (mut ata, mut atb) = (vec![0.0; m * m], vec![0.0; m]);
+    for (_, x, y) in &rows {
+        for p in 0..m {
+            atb[p] += x[p] * y;
+            for q in 0..m {
+                ata[p * m + q] += x[p] * x[q];
+            }
+        }
+    }
+    let c = gap::stats::solve(ata, atb).unwrap();
+    let mut per_flight = vec![Vec::new(); set.flights.len()];
+    for (k, x, y) in &rows {
+        per_flight[*k].push(y - x.iter().zip(&c).map(|(a, b)| a * b).sum::<f64>());
+    }
+    let means: Vec<f64> = per_flight
+        .iter()
+        .filter(|r| !r.is_empty())
+        .map(|r| gap::stats::mean(r).unwrap())
+        .collect();
+    let between = gap::stats::rms(&means).unwrap();
+    let within: Vec<f64> = per_flight
+        .iter()
+        .zip(means.iter())
+        .flat_map(|(r, m)| r.iter().map(move |e| e - m))
+        .collect();
+    let within = gap::stats::rms(&within).unwrap();
+    assert!(
+        between > 0.06 && within < 0.03,
+        "between flights {between:.3} V, within {within:.3} V"
+    );
+}
+
 /// The held-out voltage RMSE on the Crazyflie flights with the learned battery, V, as measured
 /// when the learned battery landed (`hoverbench gap ../shared/data/real/crazyflie`).
 const CRAZYFLIE_RMSE_V: f64 = 0.106;

@@ -169,6 +169,15 @@ fn battery_learn_writes_the_section_and_keeps_the_curve() {
     let written = std::fs::read_to_string(&p).unwrap();
     assert!(written.starts_with(&text[..text.find("[provenance]").unwrap()]));
     assert!(written.contains("[battery]\nversion = 1\ncells = 3\n"));
+    // How the curve was fitted, for the online band's curve term: the fit's RMSE, and the
+    // prior's σ (0.3 V per cell: no --chemistry given).
+    let rmse = v["battery"]["fit_rmse_cell_v"].as_f64().unwrap();
+    assert!(rmse > 0.0 && rmse < 0.5, "{rmse}");
+    assert_eq!(v["battery"]["curve_prior_sigma_cell_v"], 0.3);
+    assert!(
+        written.contains("curve_prior_sigma_cell_v = 0.3\n"),
+        "{written}"
+    );
     // The file replays with the online estimator.
     let r: Value = serde_json::from_str(&ok(&[
         "replay",

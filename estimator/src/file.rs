@@ -83,6 +83,15 @@ pub struct BatterySection {
     /// Where the model came from (e.g. the gap diagnosis and its flights), as text.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub source: String,
+    /// Root-mean-square voltage residual per cell of the fit the curve was learned by, V (the
+    /// gap diagnosis writes it; absent in hand-written sections and older files).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fit_rmse_cell_v: Option<f64>,
+    /// Standard deviation per cell of the chemistry prior the curve was pulled towards, V: the
+    /// gap diagnosis's 0.03 V when the chemistry was given, 0.3 V when it was not (then any
+    /// chemistry's low end may be the pack's). Absent in hand-written sections and older files.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub curve_prior_sigma_cell_v: Option<f64>,
 }
 
 impl BatterySection {
@@ -100,7 +109,26 @@ impl BatterySection {
             rc_time_constant_s: b.rc_time_constant_s,
             cutoff_cell_v: b.cutoff_cell_v,
             source: source.to_owned(),
+            fit_rmse_cell_v: None,
+            curve_prior_sigma_cell_v: None,
         }
+    }
+
+    /// The online band's curve-shape uncertainty at the cut-off for this section, V per cell
+    /// ([`crate::online::OnlineConfig::cutoff_curve_sigma_cell_v`]): `√2 × max(prior σ, fit
+    /// RMSE)` (two independent points of the curve, now and at the cut-off) when the section
+    /// says how its curve was learned, else `default` (a section without these keys keeps
+    /// today's behaviour). A missing one of the two keys counts as 0; neither raises the value
+    /// below `default`.
+    pub fn curve_shape_sigma_cell_v(&self, default: f64) -> f64 {
+        let known = |v: Option<f64>| v.filter(|x| x.is_finite() && *x >= 0.0);
+        let prior = known(self.curve_prior_sigma_cell_v);
+        let rmse = known(self.fit_rmse_cell_v);
+        if prior.is_none() && rmse.is_none() {
+            return default;
+        }
+        let s = core::f64::consts::SQRT_2 * prior.unwrap_or(0.0).max(rmse.unwrap_or(0.0));
+        s.max(default)
     }
 
     /// The battery model, checked; the message names the key at fault.
@@ -113,6 +141,19 @@ impl BatterySection {
                     self.version
                 ),
             ));
+        }
+        for (key, v) in [
+            ("fit_rmse_cell_v", self.fit_rmse_cell_v),
+            ("curve_prior_sigma_cell_v", self.curve_prior_sigma_cell_v),
+        ] {
+            if let Some(v) = v
+                && !(v.is_finite() && v >= 0.0)
+            {
+                return Err((
+                    key,
+                    format!("battery.{key} = {v} must be a finite voltage of 0 or more"),
+                ));
+            }
         }
         let capacity = match (self.rated_capacity_ah, self.rated_capacity_mah) {
             (Some(ah), None) => ah,
@@ -835,6 +876,34 @@ mod tests {
     }
 
     #[test]
+    fn battery_section_fit_keys_size_the_curve_band() {
+        let f = with_battery();
+        let b = f.battery.clone().unwrap();
+        // A section without the keys (hand-written, older files) keeps the configured value.
+        assert_eq!(b.fit_rmse_cell_v, None);
+        assert!(!f.to_toml_string().contains("fit_rmse_cell_v"));
+        assert_eq!(b.curve_shape_sigma_cell_v(0.042), 0.042);
+        // With them: they survive the file, and the larger of prior and fit sets the value.
+        let mut g = f.clone();
+        let gb = g.battery.as_mut().unwrap();
+        gb.fit_rmse_cell_v = Some(0.012);
+        gb.curve_prior_sigma_cell_v = Some(0.3);
+        let back = ParamsFile::from_toml_str(&g.to_toml_string()).unwrap();
+        let bb = back.battery.unwrap();
+        assert_eq!(bb.fit_rmse_cell_v, Some(0.012));
+        assert_eq!(bb.curve_prior_sigma_cell_v, Some(0.3));
+        assert!((bb.curve_shape_sigma_cell_v(0.042) - 0.3 * 2f64.sqrt()).abs() < 1e-12);
+        let mut c = bb.clone();
+        c.curve_prior_sigma_cell_v = Some(0.03);
+        c.fit_rmse_cell_v = Some(0.05);
+        assert!((c.curve_shape_sigma_cell_v(0.042) - 0.05 * 2f64.sqrt()).abs() < 1e-12);
+        // Never below the configured value.
+        c.curve_prior_sigma_cell_v = None;
+        c.fit_rmse_cell_v = Some(0.001);
+        assert_eq!(c.curve_shape_sigma_cell_v(0.042), 0.042);
+    }
+
+    #[test]
     fn battery_section_errors_name_the_line() {
         let text = with_battery().to_toml_string();
         let line_of =
@@ -890,6 +959,14 @@ mod tests {
                 text.replace("chemistry = \"lipo\"", "chemistry = \"plutonium\""),
                 "chemistry",
                 "plutonium",
+            ),
+            (
+                text.replace(
+                    "chemistry = \"lipo\"",
+                    "chemistry = \"lipo\"\nfit_rmse_cell_v = -0.02",
+                ),
+                "fit_rmse_cell_v",
+                "fit_rmse_cell_v = -0.02",
             ),
         ] {
             let _ = knots(&b);

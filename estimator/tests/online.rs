@@ -609,3 +609,222 @@ fn a_current_sensor_off_by_eight_percent_is_absorbed_by_the_capacity_with_a_trus
         }
     }
 }
+
+/// The default configuration with only the named band source under test left in (the others
+/// at 0), so a test sees what that one source does.
+fn band_only(f: impl Fn(&mut OnlineConfig)) -> OnlineConfig {
+    let mut c = OnlineConfig {
+        current_scale_sigma: 0.0,
+        current_offset_sigma_a: 0.0,
+        cutoff_curve_sigma_cell_v: 0.0,
+        voltage_scale_sigma: 0.0,
+        capacity_fade_sigma: 0.0,
+        end_soc_sigma: 0.0,
+        ..OnlineConfig::default()
+    };
+    f(&mut c);
+    c
+}
+
+/// The one-sigma band of the remaining hover time at `frac` of the flight, s.
+fn sigma_at(f: &Flight, out: &[Estimate], frac: f64) -> f64 {
+    out[at_fraction(f, frac).0].remaining_phase_sigma_s
+}
+
+#[test]
+fn the_band_widens_with_the_current_sensor_scale_and_only_when_the_current_is_logged() {
+    for with_current in [true, false] {
+        let narrow = band_only(|_| ());
+        let wide = band_only(|c| c.current_scale_sigma = 0.03);
+        let (f, a) = flown_with(&narrow, NOMINAL, 1.0, with_current, 4);
+        let (_, b) = flown_with(&wide, NOMINAL, 1.0, with_current, 4);
+        for frac in [0.25, 0.5, 0.75] {
+            let (sa, sb) = (sigma_at(&f, &a, frac), sigma_at(&f, &b, frac));
+            // The estimate itself does not move: the scale is a consider parameter.
+            let k = at_fraction(&f, frac).0;
+            assert_eq!(a[k].remaining_phase_s, b[k].remaining_phase_s);
+            if with_current {
+                // A 3 % scale error moves the counted charge and the measured power by 3 %:
+                // at least a percent of the remaining time in quadrature on top.
+                let truth = at_fraction(&f, frac).1;
+                let added = (sb * sb - sa * sa).max(0.0).sqrt();
+                assert!(
+                    added > 0.01 * truth && added < 0.1 * (f.end_s - 5.0),
+                    "{frac}: {sa} → {sb} (truth {truth})"
+                );
+            } else {
+                assert_eq!(sa, sb, "no current, nothing to scale");
+            }
+        }
+    }
+}
+
+#[test]
+fn the_band_covers_the_truth_for_seeded_current_sensor_scale_draws() {
+    // Current sensors drawn with a scale error of the configured standard deviation (10 %, a
+    // module left at a wrong default scale: large enough to stand out of the rest of the
+    // band on this pack): the band with the scale propagated covers the truth at about the
+    // one-sigma rate; without it, the band is too narrow for the same draws.
+    let sd = 0.10;
+    let mut draws = Noise(0x5eed_ba2d);
+    let scales: Vec<f64> = (0..16).map(|_| 1.0 + sd * draws.gauss()).collect();
+    let coverage = |config: &OnlineConfig| {
+        let (mut n, mut within) = (0, 0);
+        for (j, k) in scales.iter().enumerate() {
+            let mut est = estimator_with(config);
+            let mut f = fly(
+                NOMINAL,
+                est.idle_power_w(),
+                est.model_hover_power_w(),
+                10.0,
+                true,
+                10 + j as u64,
+            );
+            for s in &mut f.samples {
+                s.current_a = s.current_a.map(|i| i * k);
+            }
+            let out = run(&f, &mut est);
+            for frac in [0.25, 0.5, 0.75] {
+                let (h, truth) = at_fraction(&f, frac);
+                n += 1;
+                if (out[h].remaining_phase_s - truth).abs() <= out[h].remaining_phase_sigma_s {
+                    within += 1;
+                }
+            }
+        }
+        within as f64 / n as f64
+    };
+    let with = coverage(&band_only(|c| c.current_scale_sigma = sd));
+    let without = coverage(&band_only(|_| ()));
+    eprintln!("coverage with the scale {with:.2}, without {without:.2}");
+    assert!((0.55..=0.92).contains(&with), "with the scale: {with}");
+    assert!(without < with - 0.1, "without {without}, with {with}");
+}
+
+#[test]
+fn the_band_widens_with_the_capacity_fade_and_the_curve_at_the_cut_off() {
+    let (f, base) = flown_with(&band_only(|_| ()), NOMINAL, 1.0, true, 5);
+    let (_, fade) = flown_with(
+        &band_only(|c| c.capacity_fade_sigma = 0.058),
+        NOMINAL,
+        1.0,
+        true,
+        5,
+    );
+    let (_, curve) = flown_with(
+        &band_only(|c| c.cutoff_curve_sigma_cell_v = 0.042),
+        NOMINAL,
+        1.0,
+        true,
+        5,
+    );
+    let full_s = f.end_s - 5.0;
+    for frac in [0.25, 0.5, 0.75] {
+        let s0 = sigma_at(&f, &base, frac);
+        // A fade of 5.8 % takes 5.8 % of the whole pack from the charge left, whenever it is
+        // asked: about 5.8 % of the flight in quadrature.
+        let added = (sigma_at(&f, &fade, frac).powi(2) - s0 * s0)
+            .max(0.0)
+            .sqrt();
+        assert!(
+            (0.035..0.09).contains(&(added / full_s)),
+            "fade at {frac}: {added} s of {full_s} s"
+        );
+        // The cut-off moved by 0.042 V per cell on this pack's knee (−0.28·e^(−14 s) V) costs
+        // tens of seconds: 0.042 V over a slope of ≈ 2.5 V per unit of charge there.
+        let added = (sigma_at(&f, &curve, frac).powi(2) - s0 * s0)
+            .max(0.0)
+            .sqrt();
+        assert!(
+            added > 0.005 * full_s && added < 0.05 * full_s,
+            "curve at {frac}: {added} s of {full_s} s"
+        );
+    }
+}
+
+#[test]
+fn a_gentler_curve_at_the_cut_off_widens_the_band_more() {
+    // The same pack model with the knee flattened (a gentle low end, as NMC's): the voltage the
+    // pack shows at the cut-off, uncertain by 0.042 V per cell, moves the end by more charge.
+    let mut gentle = file_battery();
+    for (k, v) in gentle.ocv_cell_v.iter_mut().enumerate() {
+        let s = k as f64 / (OCV_KNOTS - 1) as f64;
+        *v = 3.45 + 0.25 * s + 0.5 * s * s;
+    }
+    let sigma = |battery: &BatteryModel, curve_v: f64| {
+        let config = band_only(|c| c.cutoff_curve_sigma_cell_v = curve_v);
+        let mut est = OnlineEstimator::new(&params(), battery, &config).unwrap();
+        let f = fly(
+            NOMINAL,
+            est.idle_power_w(),
+            est.model_hover_power_w(),
+            10.0,
+            true,
+            6,
+        );
+        let out = run(&f, &mut est);
+        let k = at_fraction(&f, 0.5).0;
+        out[k].remaining_phase_sigma_s
+    };
+    let steep = sigma(&file_battery(), 0.042).powi(2) - sigma(&file_battery(), 0.0).powi(2);
+    let flat = sigma(&gentle, 0.042).powi(2) - sigma(&gentle, 0.0).powi(2);
+    assert!(
+        flat.max(0.0).sqrt() > 1.5 * steep.max(0.0).sqrt(),
+        "gentle {} s, steep {} s",
+        flat.max(0.0).sqrt(),
+        steep.max(0.0).sqrt()
+    );
+}
+
+#[test]
+fn the_thrust_limit_ends_the_flight_where_the_rotors_run_out() {
+    // The truth lands where the rotors can no longer carry the robot: the per-rotor limit
+    // measured at 10.65 V is the hover thrust (575 g over four rotors), so the flight ends at a
+    // loaded 10.65 V, above the 10.2 V cut-off.
+    let hover_g = 575.0 / 4.0;
+    let mut with_limit = params();
+    with_limit.thrust_limit = Some(estimator::ThrustLimit {
+        per_rotor_g: hover_g,
+        uncertainty_g: 2.9,
+        supply_voltage_v: 10.65,
+    });
+    let truth_pack = vary(|p| p.cutoff_cell_v = 10.65 / 3.0);
+    let config = OnlineConfig {
+        thrust_limit_end: true,
+        ..OnlineConfig::default()
+    };
+    let errors_with = |params: &estimator::Params, config: &OnlineConfig, current: bool| {
+        let mut est = OnlineEstimator::new(params, &file_battery(), config).unwrap();
+        let f = fly(
+            truth_pack,
+            est.idle_power_w(),
+            est.model_hover_power_w(),
+            10.0,
+            current,
+            7,
+        );
+        let out = run(&f, &mut est);
+        [0.25, 0.5, 0.75].map(|frac| remaining_error(&f, &out, frac))
+    };
+    let errors =
+        |params: &estimator::Params, config: &OnlineConfig| errors_with(params, config, true);
+    // Without a logged current the end comes at the model's hover thrust: the same here.
+    let voltage_only = errors_with(&with_limit, &config, false);
+    for e in voltage_only {
+        assert!(
+            e.abs() < 0.05,
+            "voltage only, with the limit: {voltage_only:?}"
+        );
+    }
+    let ended = errors(&with_limit, &config);
+    let without = errors(&params(), &config);
+    let switched_off = errors(&with_limit, &OnlineConfig::default());
+    for k in 0..3 {
+        assert!(ended[k].abs() < 0.03, "with the limit: {ended:?}");
+        assert!(
+            without[k] > 0.04,
+            "without a limit it flies on: {without:?}"
+        );
+        assert_eq!(without[k], switched_off[k], "off by default");
+    }
+}

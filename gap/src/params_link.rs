@@ -53,6 +53,8 @@ pub fn battery_section(
         rc_time_constant_s: learned.rc_time_constant_s,
         cutoff_cell_v,
         source: source.to_owned(),
+        fit_rmse_cell_v: None,
+        curve_prior_sigma_cell_v: None,
     }
 }
 
@@ -139,8 +141,11 @@ pub fn learn_section<C: estimator::PowerCurve>(
         crate::battery::Chemistry::Measured => "measured",
         c => c.name(),
     };
-    Ok(LearnedSection {
-        section: battery_section(&fit.battery, cells, capacity, chem, cutoff_cell_v, &source),
-        fit,
-    })
+    let mut section = battery_section(&fit.battery, cells, capacity, chem, cutoff_cell_v, &source);
+    // How far the curve may be off where no flight measured it (the online band's curve term):
+    // the fit's residual, and the prior's pull (`crate::battery`'s fit: σ 0.03 V per cell when
+    // the chemistry is given, 0.3 V when it is not).
+    section.fit_rmse_cell_v = Some(fit.rmse_cell_v).filter(|v| v.is_finite());
+    section.curve_prior_sigma_cell_v = Some(if chemistry.is_some() { 0.03 } else { 0.3 });
+    Ok(LearnedSection { section, fit })
 }

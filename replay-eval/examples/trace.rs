@@ -23,7 +23,7 @@ fn main() {
         };
         let setup = replay::FlightSetup::of(flight);
         let plan = replay::methods::mission_plan(flight, &span);
-        let online = FileOnline::new(p.params, *battery, config);
+        let online = FileOnline::new(p.online_params(), *battery, config);
         let mut pred = online.build(&setup, &plan, span.takeoff_s).expect("online");
         let static_end =
             replay::methods::StaticModel::new(&p.params, &setup, &plan, span.takeoff_s)

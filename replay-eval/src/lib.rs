@@ -244,6 +244,24 @@ fn read_back(f: &SimFlight, label_v: f64) -> Result<Flight, EvalError> {
     Ok(flight)
 }
 
+/// The rig's thrust-limit sweep of one rotor at `volts` (the paper's procedure: at the minimum
+/// battery voltage, the autopilot's landing threshold, thrust stepped by `step_g` until the
+/// rotor cannot hold a step): the limit lies between the last step held and the next, so it is
+/// reported as the middle of that step with the step's uniform standard deviation
+/// (`step / √12`).
+pub fn limit_sweep(robot: &Robot, volts: f64, step_g: f64) -> estimator::ThrustLimit {
+    let max = robot.propulsion.max_thrust_g(volts);
+    let mut held = 0.0;
+    while held + step_g <= max {
+        held += step_g;
+    }
+    estimator::ThrustLimit {
+        per_rotor_g: held + 0.5 * step_g,
+        uncertainty_g: step_g / 12f64.sqrt(),
+        supply_voltage_v: volts,
+    }
+}
+
 /// What was learned for one pack type.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct LearnedPack {
@@ -287,14 +305,24 @@ pub struct PreparedScenario {
     pub family: Family,
     /// The condition of the held-out flights.
     pub condition: Condition,
-    /// Rig curve and rotor count (no `[battery]`: each flight gets its pack's section).
+    /// Rig curve and rotor count (no `[battery]`: each flight gets its pack's section), as the
+    /// baselines get them: without the thrust limit (the static model would otherwise refuse
+    /// every flight over eq. 5's payload limit, a change to the baseline's inputs).
     pub params: Params,
+    /// The rig's thrust limit at the minimum battery voltage ([`limit_sweep`] at the flights'
+    /// cut-off voltage), given to the online estimator only
+    /// ([`estimator::online::OnlineConfig::thrust_limit_end`]).
+    pub thrust_limit: Option<estimator::ThrustLimit>,
     /// Packs learned.
     pub packs: Vec<LearnedPack>,
     /// Held-out flights with the learned pack model of their pack type.
     pub flights: Vec<(Flight, estimator::online::BatteryModel)>,
     /// Held-out flights that cannot be replayed (no training flight of their pack).
     pub skipped: Vec<SkippedFlight>,
+    /// The online band's curve-shape uncertainty for each flight in [`Self::flights`], V per
+    /// cell, from its pack's learned section (`BatterySection::curve_shape_sigma_cell_v`:
+    /// the fit's RMSE and the prior's pull), or `None` to keep the configured value.
+    pub curve_sigma_cell_v: Vec<Option<f64>>,
 }
 
 /// Flies a scenario's training and held-out flights and learns its packs (steps 1–3 of the
@@ -357,6 +385,7 @@ pub fn prepare_scenario(family: &Family, seed: u64) -> Result<PreparedScenario, 
     let condition = Condition::draw(seed);
     let effect = condition.effect();
     let mut flights = Vec::new();
+    let mut curve_sigma = Vec::new();
     let mut skipped = Vec::new();
     for (k, p) in held_plans.iter().enumerate() {
         let mut plan = p.clone();
@@ -398,17 +427,37 @@ pub fn prepare_scenario(family: &Family, seed: u64) -> Result<PreparedScenario, 
             pack: id.clone(),
             message: m,
         })?;
+        curve_sigma.push(
+            (section.fit_rmse_cell_v.is_some() || section.curve_prior_sigma_cell_v.is_some())
+                .then(|| section.curve_shape_sigma_cell_v(0.0)),
+        );
         flights.push((flight, battery));
     }
+    let thrust_limit = train
+        .iter()
+        .find_map(|f| f.meta.cutoff_voltage_v)
+        .map(|v| limit_sweep(&robot, v, 10.0));
     Ok(PreparedScenario {
         seed,
         family: *family,
         condition,
         params,
+        thrust_limit,
         packs,
         flights,
         skipped,
+        curve_sigma_cell_v: curve_sigma,
     })
+}
+
+impl PreparedScenario {
+    /// The parameters the online estimator gets: [`Self::params`] with the thrust limit.
+    pub fn online_params(&self) -> Params {
+        Params {
+            thrust_limit: self.thrust_limit,
+            ..self.params
+        }
+    }
 }
 
 /// Replays a prepared scenario's held-out flights with the online estimator configured by
@@ -416,8 +465,12 @@ pub fn prepare_scenario(family: &Family, seed: u64) -> Result<PreparedScenario, 
 pub fn replay_scenario(prepared: &PreparedScenario, config: &OnlineConfig) -> ScenarioOutcome {
     let mut flights = Vec::new();
     let mut skipped = prepared.skipped.clone();
-    for (flight, battery) in &prepared.flights {
-        let online = FileOnline::new(prepared.params, *battery, *config);
+    for (k, (flight, battery)) in prepared.flights.iter().enumerate() {
+        let mut config = *config;
+        if let Some(Some(s)) = prepared.curve_sigma_cell_v.get(k) {
+            config.cutoff_curve_sigma_cell_v = config.cutoff_curve_sigma_cell_v.max(*s);
+        }
+        let online = FileOnline::new(prepared.online_params(), *battery, config);
         let rc = ReplayConfig {
             params: prepared.params,
             online: Some(&online),

@@ -105,3 +105,36 @@ fn a_seventeen_percent_fade_is_learned_on_tuning_seed_5() {
         err * 100.0
     );
 }
+
+/// The rig's limit sweep at the minimum battery voltage reproduces the paper's thrust limit on
+/// its own platform: 150 g per rotor at 9.0 V (`paper-targets.md`, m_L = 0.600 kg), within the
+/// sweep's 10 g step; and a lower voltage gives a lower limit.
+#[test]
+fn the_limit_sweep_finds_the_papers_thrust_limit_at_nine_volts() {
+    let robot = flight_sim::Robot::of(flight_sim::RobotVariant::Paper, 0);
+    let l = replay_eval::limit_sweep(&robot, 9.0, 10.0);
+    assert!((l.per_rotor_g - 150.0).abs() <= 10.0, "{l:?}");
+    assert!((l.uncertainty_g - 10.0 / 12f64.sqrt()).abs() < 1e-12);
+    assert_eq!(l.supply_voltage_v, 9.0);
+    assert!(replay_eval::limit_sweep(&robot, 8.0, 10.0).per_rotor_g < l.per_rotor_g);
+}
+
+/// Each held-out flight carries the curve-shape uncertainty of its pack's learned section:
+/// `√2 × max(prior σ, fit RMSE)`, at least the 0.042 V per cell of a known chemistry, and the
+/// unknown chemistry's 0.3 V prior (LiFePO₄ is not labelled) in full.
+#[test]
+fn prepared_flights_carry_the_learned_curve_sigma() {
+    for (family, least) in [
+        ("lipo/fc-10hz/paper", 0.03 * std::f64::consts::SQRT_2),
+        ("lfp/fc-10hz/paper", 0.3 * std::f64::consts::SQRT_2),
+    ] {
+        let fam = flight_sim::Family::parse(family).unwrap();
+        let p = replay_eval::prepare_scenario(&fam, 1).unwrap();
+        assert!(!p.flights.is_empty());
+        assert_eq!(p.curve_sigma_cell_v.len(), p.flights.len());
+        for s in &p.curve_sigma_cell_v {
+            let s = s.expect("a learned section says how its curve was fitted");
+            assert!(s >= least - 1e-12 && s < 1.0, "{family}: {s}");
+        }
+    }
+}

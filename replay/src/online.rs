@@ -48,7 +48,13 @@ impl FileOnline {
             "the parameter file has no [battery] section (store one with `hoverbench battery learn`)"
                 .to_owned()
         })?;
-        Ok(Self::new(params, battery, OnlineConfig::default()))
+        let mut config = OnlineConfig::default();
+        // A learned section says how far its curve may be off (fit RMSE, prior's pull).
+        if let Some(b) = &file.battery {
+            config.cutoff_curve_sigma_cell_v =
+                b.curve_shape_sigma_cell_v(config.cutoff_curve_sigma_cell_v);
+        }
+        Ok(Self::new(params, battery, config))
     }
 
     /// From parameters, a pack model and the filter's configuration.

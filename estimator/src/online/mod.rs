@@ -76,7 +76,7 @@ use nalgebra::{SMatrix, SVector};
 use crate::curve::require_positive;
 use crate::mission::{MissionOptions, Segment};
 use crate::{EstimateError, Params};
-use predict::{Pack, SimSegment};
+use predict::{Pack, SimSegment, ThrustEnd};
 
 /// Number of filter states.
 pub const STATES: usize = 6;
@@ -200,11 +200,76 @@ pub struct OnlineConfig {
     /// Model error of a predicted remaining time, as a fraction of it, added in quadrature to
     /// the spread of the state's sigma points.
     pub prediction_model_sigma_fraction: f64,
-    /// Uncertainty of the state of charge at which the loaded voltage will reach the cut-off
-    /// (the knee of the curve, which no flight has shown before it gets there), as a fraction
-    /// of the pack: it adds `end_soc_sigma × (time a full pack lasts at the phase's power)` in
-    /// quadrature to every predicted remaining time, however short. A process uncertainty, not
-    /// a state: it does not shrink as samples come in, only once the knee is reached.
+    /// Scale error of the current sensor (one sigma, a fraction of the reading): the charge
+    /// counted so far and the power measured in hover are both off by it, and nothing in the
+    /// flight tells it from a capacity or a power draw, so the band carries it (a consider
+    /// parameter: a pair of forward integrations with the count and the learned power moved by
+    /// one sigma). Default 0 (off, two forward integrations saved): on `replay-eval`'s sets
+    /// [`Self::end_soc_sigma`] already covers what it adds (README, "How long can it still
+    /// fly?"). For a band that names it: 0.03, an uncalibrated hobby power module — shunt
+    /// tolerance and the ADC reference (an uncalibrated shunt wattmeter's maximum relative
+    /// error is about 3 %, DFRobot SEN0291's notes), or a Hall sensor's sensitivity trim; a
+    /// sensor calibrated against a meter: 0.002–0.005. Only used while the current is logged.
+    pub current_scale_sigma: f64,
+    /// Zero-current offset of the current sensor (one sigma), A: counted over the time the
+    /// current was logged, and times the voltage in the measured power. Default 0 (off, as
+    /// [`Self::current_scale_sigma`]); for a band that names it: 0.2 A, a Hall power module's
+    /// quiescent-output trim and drift (tens of mA to a few tenths of an ampere on 50–100 A
+    /// parts); a lab shunt logger: 0.01–0.02 A.
+    pub current_offset_sigma_a: f64,
+    /// Uncertainty of the open-circuit curve's shape between the state of charge now (where
+    /// the curve offset is estimated) and where the loaded voltage will reach the cut-off, V
+    /// per cell (one sigma, reached once the two points are a knot spacing, 5 % of the charge,
+    /// or more apart; closer, it shrinks as the square root of the charge between them). The
+    /// band moves the cut-off by this and integrates again, so the charge left at the cut-off
+    /// follows the curve's slope there: a steep knee (LiPo) costs seconds, a gentle low end
+    /// (NMC, LiFePO₄) minutes. Default 0.042 V: √2 × 0.03 V, the gap diagnosis's pack-to-pack
+    /// standard deviation of a known chemistry's curve at a knot (`gap::battery`'s prior pull),
+    /// for the two independent points; below a quarter of the charge the learned curve is that
+    /// prior's shape (`gap::battery::KNEE_FREE_SOC`), so it applies in full there. A learned
+    /// `[battery]` section says how its curve was fitted (`fit_rmse_cell_v`,
+    /// `curve_prior_sigma_cell_v`); `replay` and `replay-eval` then raise this to
+    /// `√2 × max(prior σ, fit RMSE)` (`estimator::file::BatterySection::curve_shape_sigma_cell_v`):
+    /// 0.42 V for a curve learned without its chemistry.
+    pub cutoff_curve_sigma_cell_v: f64,
+    /// Capacity the pack may have lost to age, not in the filter's capacity prior (one sigma,
+    /// a fraction): a consider parameter of the band (the charge left at every instant shrinks
+    /// by it, times the section's capacity), since the filter's curve offset absorbs a fade
+    /// rather than revealing it. Default 0 (off, as [`Self::current_scale_sigma`]); for a band
+    /// that names it: 0.058, since lithium packs are rated to 80 % of their capacity at the end
+    /// of their cycle life (300–500 cycles), and a pack anywhere in that life, uniform over
+    /// 0–20 % lost, has that standard deviation (0.2 / √12).
+    pub capacity_fade_sigma: f64,
+    /// Scale error of the voltage sensor (one sigma, a fraction): the voltage still to fall
+    /// from the open-circuit voltage now to the cut-off is off by it, which moves the cut-off
+    /// the same way. Default 0.01: a 1 % resistor divider.
+    pub voltage_scale_sigma: f64,
+    /// End the forward integration also where the rotors run out of thrust, when the
+    /// parameters carry the thrust limit (`[thrust_limit]`: the paper's `m_L`, measured per
+    /// rotor at the minimum battery voltage). Default false: on `replay-eval`'s flight sets it
+    /// lowers the median error on some and raises it on others, and makes some flights worse
+    /// (README, "How long can it still fly?").
+    pub thrust_limit_end: bool,
+    /// Share of the learned power above the model that is thrust (what raises the voltage the
+    /// rotors run out of thrust at), once a logged current has measured that power (without a
+    /// current the extra power is inferred from the voltage, where it also stands for
+    /// resistance and capacity: the thrust end then uses the model's hover thrust). Nothing in
+    /// the samples splits a payload or a download (all thrust) from control activity or losses
+    /// the rig did not have (none): default 1.0, chosen on `replay-eval`'s tuning families
+    /// over 0.5 (the middle of 0..1), with [`Self::extra_power_thrust_share_sigma`] its
+    /// spread.
+    pub extra_power_thrust_share: f64,
+    /// Standard deviation of that share: 0.29, a uniform share over 0..1 (`1/√12`).
+    pub extra_power_thrust_share_sigma: f64,
+    /// An extra uncertainty of the state of charge at which the cut-off comes, as a fraction of
+    /// the pack, added in quadrature as `end_soc_sigma × (time a full pack lasts at the phase's
+    /// power)`: what the named sources above leave out or are off for (the model's own misses:
+    /// a knee the curve lacks, cold, a pack's fade, the current sensor). Not a physical source.
+    /// Default 0.08, sized on `replay-eval`'s tuning families' coverage (seeds 0–23: 72 % with
+    /// the defaults). With the current-sensor and fade terms on (0.03, 0.2 A, 0.058) 0.04 gives
+    /// the same coverage there, for six more forward integrations per prediction and no
+    /// coverage gained on held-out sets; without this term the held-out families are covered
+    /// less than with it (README, "How long can it still fly?").
     pub end_soc_sigma: f64,
 }
 
@@ -231,6 +296,14 @@ impl Default for OnlineConfig {
             gap_s: 10.0,
             prediction_interval_s: 1.0,
             prediction_model_sigma_fraction: 0.02,
+            current_scale_sigma: 0.0,
+            current_offset_sigma_a: 0.0,
+            cutoff_curve_sigma_cell_v: 0.042,
+            voltage_scale_sigma: 0.01,
+            capacity_fade_sigma: 0.0,
+            thrust_limit_end: false,
+            extra_power_thrust_share: 1.0,
+            extra_power_thrust_share_sigma: 0.29,
             end_soc_sigma: 0.08,
         }
     }
@@ -291,6 +364,19 @@ impl OnlineConfig {
                 self.prediction_model_sigma_fraction,
             ),
             ("end state-of-charge sigma", self.end_soc_sigma),
+            ("current scale sigma", self.current_scale_sigma),
+            ("current offset sigma (A)", self.current_offset_sigma_a),
+            (
+                "cut-off curve sigma (V per cell)",
+                self.cutoff_curve_sigma_cell_v,
+            ),
+            ("voltage scale sigma", self.voltage_scale_sigma),
+            ("capacity fade sigma", self.capacity_fade_sigma),
+            ("extra power thrust share", self.extra_power_thrust_share),
+            (
+                "extra power thrust share sigma",
+                self.extra_power_thrust_share_sigma,
+            ),
         ] {
             crate::curve::require_non_negative(what, v)?;
         }
@@ -410,6 +496,7 @@ struct Plan {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct OnlineEstimator {
     pack: Pack,
+    thrust_end: Option<ThrustEnd>,
     hover_power_w: f64,
     idle_power_w: f64,
     config: OnlineConfig,
@@ -426,6 +513,14 @@ pub struct OnlineEstimator {
     flags: u32,
     plan: Option<Plan>,
     prediction: Option<Prediction>,
+    /// Charge counted from the logged current since the first sample, A·s.
+    counted_as: f64,
+    /// Time over which the current was logged, s.
+    counted_s: f64,
+    /// Last accepted voltage, V.
+    last_voltage_v: f64,
+    /// A logged power has updated the extra power.
+    power_measured: bool,
 }
 
 impl OnlineEstimator {
@@ -471,8 +566,14 @@ impl OnlineEstimator {
             battery.validate()?;
         }
         let pack = Pack::new(&battery);
+        let thrust_end = if config.thrust_limit_end {
+            thrust_end(params, m_t)
+        } else {
+            None
+        };
         Ok(Self {
             pack,
+            thrust_end,
             hover_power_w: hover,
             idle_power_w: idle,
             config: *config,
@@ -489,6 +590,10 @@ impl OnlineEstimator {
             flags: Estimate::FLAG_NOT_INITIALISED,
             plan: None,
             prediction: None,
+            counted_as: 0.0,
+            counted_s: 0.0,
+            last_voltage_v: 0.0,
+            power_measured: false,
         })
     }
 
@@ -603,12 +708,17 @@ impl OnlineEstimator {
             }
             self.advance_plan(dt);
             self.time_update(dt, logged);
+            if let Some(i) = logged {
+                self.counted_as += i * dt;
+                self.counted_s += dt;
+            }
             self.voltage_update(sample.voltage_v, logged);
             if let Some(i) = logged {
                 self.power_update(sample.voltage_v * i);
             }
         }
         self.last_time_s = sample.time_s;
+        self.last_voltage_v = sample.voltage_v;
         self.samples_used = self.samples_used.saturating_add(1);
         self.current_a = match logged {
             Some(i) => i,
@@ -879,6 +989,7 @@ impl OnlineEstimator {
             return;
         }
         self.scalar_update(&h, y, sd * sd);
+        self.power_measured = true;
     }
 
     /// Joseph-form update with one scalar measurement.
@@ -1021,6 +1132,89 @@ impl OnlineEstimator {
         n
     }
 
+    /// The state moved by one sigma of each current-sensor error (scale, offset): what the
+    /// filter would hold had the sensor read high by that much (the charge counted too high by
+    /// it, the power measured in hover too high by it). Zero vectors before any current was
+    /// logged.
+    fn sensor_deltas(&self, x: &Vector) -> [Vector; 3] {
+        let c = &self.config;
+        let q_as = 3600.0 * self.pack.capacity_ah * x[CSCALE].max(0.05);
+        let mut scale = Vector::zeros();
+        let mut offset = Vector::zeros();
+        scale[SOC] = c.current_scale_sigma * self.counted_as.max(0.0) / q_as;
+        offset[SOC] = c.current_offset_sigma_a * self.counted_s / q_as;
+        if self.power_measured {
+            scale[PEXTRA] = -c.current_scale_sigma * (self.hover_power_w + x[PEXTRA]).max(0.0);
+            offset[PEXTRA] = -c.current_offset_sigma_a * self.last_voltage_v;
+        }
+        // A used pack's capacity: the charge already counted stays, the pack holds
+        // `capacity_fade_sigma` of its capacity less, so the charge left shrinks by all of it:
+        // soc' = 1 − (1 − soc)/(1 − f), c' = c·(1 − f).
+        let mut fade = Vector::zeros();
+        let f = c.capacity_fade_sigma.clamp(0.0, 0.5);
+        if f > 0.0 {
+            fade[CSCALE] = -f * x[CSCALE];
+            fade[SOC] = (1.0 - (1.0 - x[SOC]) / (1.0 - f)) - x[SOC];
+        }
+        [scale, offset, fade]
+    }
+
+    /// Share of the extra power taken as thrust: the configured one once a logged current
+    /// has measured the power, else none.
+    fn thrust_share(&self) -> f64 {
+        if self.power_measured {
+            self.config.extra_power_thrust_share
+        } else {
+            0.0
+        }
+    }
+
+    /// One sigma of the voltage the pack will show at the cut-off relative to the curve (and
+    /// its offset) where the filter is now, V at pack level: the curve's shape between the
+    /// state of charge now and `end_soc` ([`OnlineConfig::cutoff_curve_sigma_cell_v`]) and the
+    /// voltage sensor's scale times the voltage still to fall.
+    fn cutoff_shift_sigma_v(&self, x: &Vector, end_soc: f64) -> f64 {
+        let c = &self.config;
+        let ds = (x[SOC] - end_soc).max(0.0);
+        let shape =
+            c.cutoff_curve_sigma_cell_v * self.pack.cells * libm::sqrt((ds / 0.05).min(1.0));
+        let fall = (self.pack.ocv_v(x[SOC]) + x[VBIAS] - self.pack.cutoff_v).max(0.0);
+        let scale = c.voltage_scale_sigma * fall;
+        // Where the rotors' thrust sets the end, the limit's own uncertainty moves the voltage
+        // it comes at by `V·σ_T / (k·T_L)`.
+        // The share of the power above the model that is thrust is not known either (a payload,
+        // a download: all of it; control activity, losses the rig did not have: none of it):
+        // its standard deviation moves the voltage by the floor's slope in it.
+        let (limit, share) = self.thrust_end.map_or((0.0, 0.0), |t| {
+            let s = self.thrust_share();
+            let ds = c.extra_power_thrust_share_sigma;
+            let v = t.floor_v(t.thrust_g(x[PEXTRA], s));
+            if v > self.pack.cutoff_v {
+                let hi = t.floor_v(t.thrust_g(x[PEXTRA], s + ds));
+                let lo = t.floor_v(t.thrust_g(x[PEXTRA], s - ds));
+                (
+                    v * t.limit_sigma_g / (t.exponent * t.limit_g),
+                    0.5 * (hi - lo.max(self.pack.cutoff_v)).abs(),
+                )
+            } else {
+                (0.0, 0.0)
+            }
+        });
+        libm::sqrt(shape * shape + scale * scale + limit * limit + share * share)
+    }
+
+    /// One sigma of a remaining time from the power draw wandering over the `flying_s` still to
+    /// fly, s: the filter's own random walk of the extra power
+    /// ([`OnlineConfig::extra_power_drift_fraction_per_sqrt_s`]) carried forward — the mean of
+    /// a random walk over `T` has the standard deviation `q·√(T/3)` — and the time lost to a
+    /// power that much higher, `T·σ_P / P`.
+    fn power_wander_s(&self, flying_s: f64, x: &Vector) -> f64 {
+        let t = flying_s.max(0.0);
+        let q = self.config.extra_power_drift_fraction_per_sqrt_s * self.hover_power_w;
+        let sigma_p = q * libm::sqrt(t / 3.0);
+        t * sigma_p / self.power_w(FlightPhase::Hover, x)
+    }
+
     fn predict(&self, t: f64) -> Prediction {
         let x = self.x;
         // On the ground the question is how long the robot can hover once it takes off;
@@ -1039,6 +1233,7 @@ impl OnlineEstimator {
             Some(ch) => ch.l(),
             None => Matrix::from_diagonal(&self.p.diagonal().map(|d| libm::sqrt(d.max(0.0)))),
         };
+        let sensor = self.sensor_deltas(&x);
         let phase_seg = [SimSegment {
             flying: phase_flying,
             duration_s: f64::INFINITY,
@@ -1046,34 +1241,69 @@ impl OnlineEstimator {
             ends_at_cutoff: true,
         }];
         let mut flags = 0;
-        let run = |xs: &Vector, segs: &[SimSegment], plan_len: usize, flags: &mut u32| {
-            let r = predict::simulate(
-                &self.pack,
-                xs,
-                segs,
-                plan_len,
-                self.hover_power_w + xs[PEXTRA],
-                self.idle_power_w,
-            );
-            if r.truncated {
-                *flags |= Estimate::FLAG_TRUNCATED;
+        let run =
+            |xs: &Vector, segs: &[SimSegment], plan_len: usize, shift_v: f64, flags: &mut u32| {
+                let floor_v = self.thrust_end.map_or(0.0, |t| {
+                    t.floor_v(t.thrust_g(xs[PEXTRA], self.thrust_share()))
+                });
+                let r = predict::simulate(
+                    &self.pack,
+                    xs,
+                    segs,
+                    plan_len,
+                    &predict::SimLoad {
+                        hover_w: self.hover_power_w + xs[PEXTRA],
+                        idle_w: self.idle_power_w,
+                        fly_floor_v: floor_v,
+                        cutoff_shift_v: shift_v,
+                    },
+                );
+                if r.truncated {
+                    *flags |= Estimate::FLAG_TRUNCATED;
+                }
+                r
+            };
+        // Variance of a forward integration's time (`pick` of its result) from the state's
+        // sigma points, the current sensor's errors and the voltage at the cut-off.
+        let spread = |segs: &[SimSegment],
+                      plan_len: usize,
+                      centre: &predict::SimResult,
+                      pick: &dyn Fn(&predict::SimResult) -> f64,
+                      flags: &mut u32| {
+            let mut var = 0.0;
+            let mut pair = |a: f64, b: f64| var += 0.25 * (a - b) * (a - b);
+            for j in 0..STATES {
+                let col = l.column(j).into_owned();
+                let a = pick(&run(&(x + col), segs, plan_len, 0.0, flags));
+                let b = pick(&run(&(x - col), segs, plan_len, 0.0, flags));
+                pair(a, b);
             }
-            r
+            for d in &sensor {
+                if d.iter().any(|v| *v != 0.0) {
+                    let a = pick(&run(&(x + d), segs, plan_len, 0.0, flags));
+                    let b = pick(&run(&(x - d), segs, plan_len, 0.0, flags));
+                    pair(a, b);
+                }
+            }
+            let shift = self.cutoff_shift_sigma_v(&x, centre.end_soc);
+            if shift > 0.0 {
+                let a = pick(&run(&x, segs, plan_len, shift, flags));
+                let b = pick(&run(&x, segs, plan_len, -shift, flags));
+                pair(a, b);
+            }
+            var
         };
-        let centre = run(&x, &phase_seg, 0, &mut flags);
+        let centre = run(&x, &phase_seg, 0, 0.0, &mut flags);
         if centre.unreachable_at_start {
             flags |= Estimate::FLAG_POWER_UNREACHABLE;
         }
-        let mut var = 0.0;
-        for j in 0..STATES {
-            let col = l.column(j).into_owned();
-            let a = run(&(x + col), &phase_seg, 0, &mut flags).total_s;
-            let b = run(&(x - col), &phase_seg, 0, &mut flags).total_s;
-            var += 0.25 * (a - b) * (a - b);
-        }
-        let mf = self.config.prediction_model_sigma_fraction * centre.total_s;
-        // The knee: the state of charge the cut-off comes at, times the time a full pack lasts
-        // at the power it will be reached at (the phase's; for a plan, hover).
+        let var = spread(&phase_seg, 0, &centre, &|r| r.total_s, &mut flags);
+        let mf = hypot(
+            self.config.prediction_model_sigma_fraction * centre.total_s,
+            self.power_wander_s(centre.plan_flying_s, &x),
+        );
+        // An extra uncertainty of the state of charge the cut-off comes at (`end_soc_sigma`),
+        // times the time a full pack lasts at the power it will be reached at.
         let knee_s = |p: f64| {
             self.config.end_soc_sigma * 3600.0 * self.pack.capacity_ah * x[CSCALE].max(0.05)
                 / (p / self.pack.ocv_v(x[SOC]).max(1e-3)).max(1e-6)
@@ -1092,15 +1322,12 @@ impl OnlineEstimator {
                 stop_soc: 0.0,
                 ends_at_cutoff: true,
             };
-            let c = run(&x, &segs[..=n], n, &mut flags);
-            let mut var = 0.0;
-            for j in 0..STATES {
-                let col = l.column(j).into_owned();
-                let a = run(&(x + col), &segs[..=n], n, &mut flags).plan_s;
-                let b = run(&(x - col), &segs[..=n], n, &mut flags).plan_s;
-                var += 0.25 * (a - b) * (a - b);
-            }
-            let mf = self.config.prediction_model_sigma_fraction * c.plan_s;
+            let c = run(&x, &segs[..=n], n, 0.0, &mut flags);
+            let var = spread(&segs[..=n], n, &c, &|r| r.plan_s, &mut flags);
+            let mf = hypot(
+                self.config.prediction_model_sigma_fraction * c.plan_s,
+                self.power_wander_s(c.plan_flying_s, &x),
+            );
             // The knee matters when the plan ends at the cut-off (else the plan's clock does).
             let knee = if c.plan_completed && c.total_s > c.plan_s {
                 0.0
@@ -1127,4 +1354,53 @@ impl OnlineEstimator {
             flags,
         }
     }
+}
+
+/// The thrust-limit end of a robot of take-off mass `m_t_kg` (eq. 1) from the parameters'
+/// thrust limit, when they have one. The exponent `k` of the maximum thrust against the voltage
+/// comes from the rig: the top of the thrust–power sweep at the curve's supply voltage against
+/// the limit at its voltage (both measured maxima when the sweep ran to the limit, as the
+/// paper's does); without a usable pair, 2 (an ideal propeller at full throttle: speed ∝
+/// voltage, thrust ∝ speed²).
+fn thrust_end(params: &Params, m_t_kg: f64) -> Option<ThrustEnd> {
+    use crate::PowerCurve;
+    let l = params.thrust_limit?;
+    let n = f64::from(params.rotor_count.max(1));
+    if !(l.per_rotor_g > 0.0 && l.supply_voltage_v > 0.0 && l.per_rotor_g.is_finite()) {
+        return None;
+    }
+    let curve = &params.curve;
+    let top_g = curve.valid_range_g().1;
+    let exponent = match curve.supply_voltage_v() {
+        Some(v) if v > 1.05 * l.supply_voltage_v && top_g > 1.05 * l.per_rotor_g => {
+            (libm::log(top_g / l.per_rotor_g) / libm::log(v / l.supply_voltage_v)).clamp(1.0, 3.0)
+        }
+        _ => 2.0,
+    };
+    let hover_g = m_t_kg * 1000.0 / n;
+    let (lo, hi) = curve.valid_range_g();
+    let a = (hover_g - 2.0).clamp(lo, hi);
+    let b = (hover_g + 2.0).clamp(lo, hi);
+    let slope = if b > a {
+        (curve.eval_unchecked(b) - curve.eval_unchecked(a)) / (b - a)
+    } else {
+        0.0
+    };
+    let watts_per_g = slope * n;
+    if !(watts_per_g.is_finite() && watts_per_g > 0.0 && hover_g > 0.0) {
+        return None;
+    }
+    Some(ThrustEnd {
+        limit_g: l.per_rotor_g,
+        limit_sigma_g: l.uncertainty_g.max(0.0),
+        limit_v: l.supply_voltage_v,
+        exponent,
+        hover_g,
+        watts_per_g,
+    })
+}
+
+/// `√(a² + b²)` (`f64::hypot` needs std).
+fn hypot(a: f64, b: f64) -> f64 {
+    libm::sqrt(a * a + b * b)
 }

@@ -62,6 +62,39 @@ impl Pack {
     }
 }
 
+/// Where the propulsion can no longer carry the robot (the paper's thrust limit `m_L`, measured
+/// per rotor at the minimum battery voltage): the loaded pack voltage below which the rotors'
+/// maximum thrust, `T_L·(V / V_L)^k`, falls short of the thrust the robot needs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct ThrustEnd {
+    /// Per-rotor thrust limit, g.
+    pub limit_g: f64,
+    /// Its standard uncertainty, g.
+    pub limit_sigma_g: f64,
+    /// Supply voltage of the limit, V.
+    pub limit_v: f64,
+    /// Exponent `k` of the maximum thrust against the voltage.
+    pub exponent: f64,
+    /// Per-rotor thrust of the model's hover (eq. 1's take-off mass), g.
+    pub hover_g: f64,
+    /// Electrical power per gram of thrust at the hover thrust, all rotors, W/g: what turns the
+    /// learned power above the model into thrust above it.
+    pub watts_per_g: f64,
+}
+
+impl ThrustEnd {
+    /// Per-rotor thrust needed when `share` of `extra_w` (power above the model's hover power)
+    /// goes into thrust, g.
+    pub fn thrust_g(&self, extra_w: f64, share: f64) -> f64 {
+        (self.hover_g + share * extra_w / self.watts_per_g.max(1e-6)).max(0.5 * self.hover_g)
+    }
+
+    /// Loaded pack voltage below which the rotors cannot make `thrust_g`, V.
+    pub fn floor_v(&self, thrust_g: f64) -> f64 {
+        self.limit_v * libm::pow((thrust_g / self.limit_g).max(1e-6), 1.0 / self.exponent)
+    }
+}
+
 /// One stretch of a forward integration at constant power.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub(super) struct SimSegment {
@@ -96,20 +129,44 @@ pub(super) struct SimResult {
     pub unreachable_at_start: bool,
     /// Stopped at [`MAX_SIM_STEPS`].
     pub truncated: bool,
+    /// State of charge where the integration stopped.
+    pub end_soc: f64,
+    /// Time spent flying (at `hover_w`) within `plan_s`, s.
+    pub plan_flying_s: f64,
 }
 
-/// Discharges the pack from state `x` through `segs`, at `hover_w` when flying and `idle_w`
-/// otherwise, until the terminal voltage reaches the cut-off, the pack cannot deliver the power,
-/// or the segments end. Midpoint rule in state-of-charge steps of at most [`SOC_STEP`]; the
+/// The powers and end voltages of a forward integration.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct SimLoad {
+    /// Power drawn flying, W.
+    pub hover_w: f64,
+    /// Power drawn on the ground or attached, W.
+    pub idle_w: f64,
+    /// Loaded voltage below which the rotors run out of thrust, V (0: no limit).
+    pub fly_floor_v: f64,
+    /// Shift of the end voltages (the band's), V.
+    pub cutoff_shift_v: f64,
+}
+
+/// Discharges the pack from state `x` through `segs`, at `load.hover_w` when flying and `load.idle_w`
+/// otherwise, until the terminal voltage reaches the cut-off (`pack.cutoff_v`, flying also
+/// `fly_floor_v` where the rotors run out of thrust, whichever is higher, moved by
+/// `cutoff_shift_v`: the band moves it by the uncertainty of the voltage the pack will show
+/// there), the pack cannot deliver the power, or the segments end. Midpoint rule in state-of-charge steps of at most [`SOC_STEP`]; the
 /// cut-off time is interpolated linearly in voltage within the step that crosses it.
 pub(super) fn simulate(
     pack: &Pack,
     x: &Vector,
     segs: &[SimSegment],
     plan_len: usize,
-    hover_w: f64,
-    idle_w: f64,
+    load: &SimLoad,
 ) -> SimResult {
+    let SimLoad {
+        hover_w,
+        idle_w,
+        fly_floor_v,
+        cutoff_shift_v,
+    } = *load;
     let mut s = if x[SOC].is_finite() {
         x[SOC].clamp(0.0, 1.0)
     } else {
@@ -125,6 +182,8 @@ pub(super) fn simulate(
     let mut unreachable_at_start = false;
     let mut truncated = false;
     let mut steps = 0;
+    let mut flying_s = 0.0;
+    let mut plan_flying_s = None;
     let relax = |v1: f64, i: f64, dt: f64| {
         let target = i * pack.r1_ohm;
         if pack.tau_s > 0.0 {
@@ -135,25 +194,36 @@ pub(super) fn simulate(
     };
     'all: for (j, seg) in segs.iter().enumerate() {
         let p = if seg.flying { hover_w } else { idle_w }.max(0.05);
+        // Flying, the flight also ends where the rotors run out of thrust.
+        let cutoff_v = if seg.flying {
+            pack.cutoff_v.max(fly_floor_v)
+        } else {
+            pack.cutoff_v
+        } + cutoff_shift_v;
         let mut t_seg = 0.0;
+        let t_seg_start = t;
         let mut prev: Option<(f64, f64)> = None;
         let ended_by_rule;
         loop {
             let e = pack.ocv_v(s) - v1 + bias;
             let (i, ok) = pack.current_for_power(e, r, p);
             let v = e - i * r;
-            if !ok || v <= pack.cutoff_v {
+            if !ok || v <= cutoff_v {
                 if let Some((tp, vp)) = prev {
                     if ok && vp > v {
-                        t = tp + (vp - pack.cutoff_v) / (vp - v) * (t - tp);
+                        t = tp + (vp - cutoff_v) / (vp - v) * (t - tp);
                     }
                 } else if j == 0 && steps == 0 && !ok {
                     unreachable_at_start = true;
                 }
                 ended_by_rule = seg.ends_at_cutoff;
+                if seg.flying {
+                    flying_s += t - t_seg_start;
+                }
                 if j < plan_len {
                     plan_completed = ended_by_rule && j + 1 == plan_len;
                     plan_s = Some(t);
+                    plan_flying_s = Some(flying_s);
                 }
                 break 'all;
             }
@@ -163,8 +233,12 @@ pub(super) fn simulate(
             }
             if steps >= MAX_SIM_STEPS {
                 truncated = true;
+                if seg.flying {
+                    flying_s += t - t_seg_start;
+                }
                 if j < plan_len {
                     plan_s = Some(t);
+                    plan_flying_s = Some(flying_s);
                 }
                 break 'all;
             }
@@ -185,9 +259,13 @@ pub(super) fn simulate(
             t_seg += dt;
             v1 = relax(v1, i_step, dt);
         }
+        if seg.flying {
+            flying_s += t - t_seg_start;
+        }
         if ended_by_rule && j + 1 == plan_len {
             plan_completed = true;
             plan_s = Some(t);
+            plan_flying_s = Some(flying_s);
         }
     }
     SimResult {
@@ -196,5 +274,7 @@ pub(super) fn simulate(
         plan_completed,
         unreachable_at_start,
         truncated,
+        end_soc: s,
+        plan_flying_s: plan_flying_s.unwrap_or(flying_s),
     }
 }
