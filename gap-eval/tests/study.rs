@@ -74,15 +74,46 @@ fn a_withheld_effect_opens_a_held_out_gap() {
 /// 17badd5); taking a start the count runs more than 30 % past empty from the count, and keeping
 /// the first round when the second round's own curve still reads such starts (17.8 %; commit
 /// d5fff1d on branch `wt-s7-gapsoc`, 2 of 100 worse on held-out seeds 5000-5099, 1 of 40 on
-/// 9500-9539, 1 of 60 on 9700-9759).
+/// 9500-9539, 1 of 60 on 9700-9759). Also tried (commit 980f134 on branch `wt-s7-gapsoc`,
+/// session 7 helper gapsoc2): when the first round's count runs a flight more than 30 % past
+/// empty, refit with one additive voltage-sensor offset per flight (zero-mean prior σ 0.04 V per
+/// cell, the offsets summing to zero) and a prior on R₀ from the take-off step, each training
+/// flight's start read through its round-1 offset: seed 39 8.0 %, tuning seeds 8/26/30/32 from
+/// ~50 % to 9-14 %, 0 worse on tuning 0-39, all 0-39, 9500-9539 and fresh 10300-10359, but 1 of
+/// 100 worse on 5000-5099 (5039 lfp/bb-50hz 0.73 → 1.53 %). The learned offsets reach
+/// 0.2-0.4 V per cell (5-10 σ) on lab-1hz logs, so they absorb model misfit, not only sensor
+/// error: their prior is swamped by hundreds of rows per flight. The same with the count capped
+/// at a full pack in the trigger (commit dd0662c, helper gapsoc3: 5039's trigger was a count
+/// beyond the rated charge from a start read full, the count's error) is 0 worse on all six
+/// gap-eval sets (tuning 0-39, all 0-39, 5000-5099, 9500-9539, 10300-10359, fresh
+/// 10500-10559), but flown by the in-flight estimator (issue 14, `replay-eval`'s sweep, flight
+/// by flight at half the flight against main) it makes 6 held-out flights worse by more than
+/// 0.25 pp and 5 better: tuning 0-23 1/1, 9100-9135 0/2, 9800-9835 1/0, 9900-9935 1/1 (9908
+/// lihv-A, cold: −13.6 → −23.8 %), fresh 10700-10735 3/1 (10732 lipo-B, 22 % fade: 4.9 → 16.8
+/// and 6.0 → 10.4 %). Where it fires there, main's curve had collapsed and `replay` flew the
+/// built-in LiPo table instead; the refit's curve is real but its R₀ came out 0 (9908) or the
+/// section's capacity grew by 10 % (10732, the collapsed curve's high mean voltage had shrunk it,
+/// which offset part of the fade the filter does not learn). Ignored until a fix passes that rule
+/// for both the diagnosis and the estimator.
 ///
-/// Fixed (issue 9) by refitting with one voltage-sensor offset per flight and a prior on R₀
-/// from the take-off step when the first round's count runs a flight more than 30 % past
-/// empty, the count capped at a full pack (see `gap::battery`'s module docs): seed 39 8.0 %.
-/// Without that cap (commit 980f134) held-out seed 5039 (lfp/bb-50hz) got worse, 0.73 →
-/// 1.53 %: its pack lfp-A's trigger was a flight read full (0.998) whose current counted 1.31
-/// of the rated charge, a count error no voltage offset can explain, and the offsets then took
-/// up model misfit (its RC pair and 0.1 V of its plateau).
+/// Candidate C (commit 37c9755, session 7 helper gapsoc4; measured again in session 8 by helper
+/// gapc against main 8d21bb0): dd0662c plus R₀ held at the take-off step's mean − 2σ at least
+/// and the per-flight offsets bounded at ±2σ (0.08 V per cell). Replay against main, flights
+/// worse/better by > 0.25 pp at half the flight: tuning 0-23 0/2, 9100 0/2, 9800 2/0, 9900 0/2,
+/// fresh 10700 0/3. Both worse flights are 9805 lihv-B (bb-50hz, a 16 % fade on the held-out
+/// flights): 10-attach-B 0.3 → 5.6 %, 12-climbs-B −21.1 → +23.8 %. There main's second round
+/// had collapsed (knots 4.32-4.42 V), `replay` flew the LiPo table, and the collapsed curve's
+/// high mean voltage shrank the section's capacity to 1.23 Ah, which happened to offset the
+/// fade; C's curve is real (3.53-4.42 V, 1.33 Ah; the training flights measured 1.41 Ah usable)
+/// and its errors are those of a nominal model that does not see the fade (the static model:
+/// +5.9 and +28.2 %). In the diagnosis C is NOT 0 worse (session 7's gap-eval JSONs of A-F
+/// came from a stale `hoverbench` binary, byte-identical for every variant, i.e. dd0662c's):
+/// runs worse/better by > 0.25 pp against main: tuning 0-39 0/3, all 0-39 1/1 (26 nca 98.5 →
+/// 100.0 %), 5000-5099 2/6 (5023 nmc/bb-50hz 18.7 → 28.9 %, 5084 lihv/fc-10hz 21.2 → 49.6 %),
+/// 9500-9539 1/1 (9516 lihv/bb-50hz 39.8 → 52.0 %), 10300-10359 1/1 (10341 lihv/fc-10hz 49.4 →
+/// 50.7 %), 10500-10559 0/3. On tuning seed 8 the R₀ floor (2.6 mΩ) leaves pack lipo-A's
+/// refit collapsing again (knots flat at 4.20 V): 50.7 % as on main, where dd0662c had 9.6 %.
+#[ignore = "fails until the battery fit stops a diverging second round without making a held-out prediction worse (issue 9)"]
 #[test]
 fn a_diverging_second_round_of_the_battery_fit_is_not_kept() {
     let families = select_families("tuning").unwrap();
@@ -127,15 +158,14 @@ fn a_count_run_far_past_empty_marks_the_learned_battery_unreliable() {
     };
     let flagged = notes(39);
     assert!(
-        flagged.iter().any(|(t, n)| t == "nmc-B"
-            && (n.contains("UNRELIABLE") || n.contains("voltage-sensor offsets"))),
+        flagged
+            .iter()
+            .any(|(t, n)| t == "nmc-B" && n.contains("UNRELIABLE")),
         "{flagged:?}"
     );
     let clean = notes(2);
     assert!(
-        clean
-            .iter()
-            .all(|(_, n)| !n.contains("UNRELIABLE") && !n.contains("voltage-sensor offsets")),
+        clean.iter().all(|(_, n)| !n.contains("UNRELIABLE")),
         "{clean:?}"
     );
 }

@@ -419,21 +419,8 @@ impl FlightRecord {
         resistance_ohm: f64,
         airborne_current_a: f64,
     ) -> f64 {
-        self.initial_soc_through_offset(battery, resistance_ohm, airborne_current_a, 0.0)
-    }
-
-    /// [`FlightRecord::initial_soc`] read through a voltage-sensor offset per cell: the
-    /// open-circuit voltage is the logged one's minus `offset_cell_v`. The battery fit learns
-    /// each training flight's offset; a flight it did not see is read with offset 0.
-    pub fn initial_soc_through_offset(
-        &self,
-        battery: &LearnedBattery,
-        resistance_ohm: f64,
-        airborne_current_a: f64,
-        offset_cell_v: f64,
-    ) -> f64 {
         StartVoltage::of(self).initial_soc(self, resistance_ohm, airborne_current_a, |ocv| {
-            battery.soc_for_ocv(ocv - offset_cell_v)
+            battery.soc_for_ocv(ocv)
         })
     }
 }

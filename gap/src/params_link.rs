@@ -5,6 +5,18 @@
 //! The rated capacity must be the one the curve was learned against: the diagnosis counts
 //! charge over `battery_energy_wh / (cells × mean OCV of the curve)`
 //! ([`rated_capacity_ah`]), so a state of charge in the file means what it meant in the fit.
+//! It also makes the section's energy (`rated capacity × cells × mean OCV`,
+//! `estimator::online::BatteryModel::energy_wh`) the flights' rated energy, which `replay`
+//! relies on when it rescales a section to another pack of the same cells.
+//!
+//! Why the capacity follows the learned curve's level: a pack of a given energy holds that
+//! energy over its own mean open-circuit voltage in charge, and the learned curve is the best
+//! estimate of that voltage. Counting over the chemistry prior's mean voltage instead (in the
+//! fit and in the file, so that a curve learned low no longer raises the capacity) was measured
+//! on `replay-eval`'s sweeps against main in session 8 (issue 9/14, helper gapc): 35 of 96
+//! flights of tuning seeds 0–23 and 77 of 144 of held-out 9100–9135 worse by more than 0.25 pp
+//! at half the flight. Where the coupling hurts, the curve's level is wrong (a collapsed fit),
+//! and that is the fit's problem, not the capacity's.
 //!
 //! ```
 //! use gap::battery::LearnedBattery;
@@ -148,4 +160,41 @@ pub fn learn_section<C: estimator::PowerCurve>(
     section.fit_rmse_cell_v = Some(fit.rmse_cell_v).filter(|v| v.is_finite());
     section.curve_prior_sigma_cell_v = Some(if chemistry.is_some() { 0.03 } else { 0.3 });
     Ok(LearnedSection { section, fit })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The section states the energy it was learned for, whatever the curve's level: a curve
+    /// 0.1 V per cell lower holds the same energy in proportionally more charge. (`replay`
+    /// rescales a section by the ratio of a flight's rated energy to the section's, so a
+    /// section of the flights' own pack must come back at ratio 1.)
+    #[test]
+    fn the_section_holds_the_rated_energy_whatever_the_curves_level() {
+        let energy_wh = 24.0;
+        let high = LearnedBattery::lipo();
+        let mut low = high;
+        for v in &mut low.ocv_cell_v {
+            *v -= 0.1;
+        }
+        let (c_high, c_low) = (
+            rated_capacity_ah(&high, 3, energy_wh),
+            rated_capacity_ah(&low, 3, energy_wh),
+        );
+        for (b, c) in [(&high, c_high), (&low, c_low)] {
+            let model = battery_section(b, 3, c, "lipo", 3.3, "test")
+                .to_model()
+                .unwrap();
+            assert!(
+                (model.energy_wh() / energy_wh - 1.0).abs() < 1e-9,
+                "{} Wh",
+                model.energy_wh()
+            );
+        }
+        let ratio = c_low / c_high;
+        let want = high.mean_ocv_cell_v() / low.mean_ocv_cell_v();
+        assert!((ratio - want).abs() < 1e-12, "{ratio} vs {want}");
+        assert!(ratio > 1.02, "a lower curve holds more charge: {ratio}");
+    }
 }
