@@ -44,7 +44,7 @@ use serde::Serialize;
 
 pub use mission::{FlightPlan, HALL_CEILING_M, Leg, plans};
 pub use robot::{Propulsion, Robot};
-pub use simulate::{SimFlight, simulate};
+pub use simulate::{SensorErrors, SimFlight, simulate, simulate_with};
 pub use world::{Chemistry, EffectKind, Family, Logging, NoFamily, RobotVariant, Withheld};
 
 /// A pack as its label says.
@@ -161,9 +161,29 @@ pub fn generate(family: &Family, effect: &Withheld, seed: u64) -> GeneratedSet {
                     EffectKind::DrainingPayload => {
                         let mut kept = p.clone();
                         kept.payload_mass_kg += effect.magnitude;
-                        simulate::run(family, &robot, &kept, &Withheld::NONE, s, false).endurance_s
+                        simulate::run(
+                            family,
+                            &robot,
+                            &kept,
+                            &Withheld::NONE,
+                            s,
+                            false,
+                            SensorErrors::Drawn,
+                        )
+                        .endurance_s
                     }
-                    _ => simulate::run(family, &robot, p, &Withheld::NONE, s, false).endurance_s,
+                    _ => {
+                        simulate::run(
+                            family,
+                            &robot,
+                            p,
+                            &Withheld::NONE,
+                            s,
+                            false,
+                            SensorErrors::Drawn,
+                        )
+                        .endurance_s
+                    }
                 };
                 endurance_s.push((p.name.clone(), with.endurance_s, without));
                 with

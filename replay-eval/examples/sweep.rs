@@ -3,6 +3,8 @@
 //! `SWEEP_FLIGHTS=1` also lists every flight: its error at 50 % and the filter's state of charge
 //! and curve offset when the pack reached the cut-off (a state of charge well above 0 there is a
 //! pack that ran out earlier than the learned section says: fade, cold, a knee the curve lacks).
+//! `SWEEP_SENSORS=ideal` (or `ideal-voltage`, `ideal-current`) flies the same worlds with
+//! calibrated sensors (no per-flight scale or offset error; noise kept): the sensor ablation.
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -16,7 +18,10 @@ fn main() {
         threads: 2,
         config: config_from_env(),
     };
-    let study = replay_eval::study(&opts, &|| {});
+    let sensors = std::env::var("SWEEP_SENSORS").map_or(flight_sim::SensorErrors::Drawn, |s| {
+        flight_sim::SensorErrors::parse(&s).expect("drawn, ideal-voltage, ideal-current or ideal")
+    });
+    let study = replay_eval::study_with(&opts, sensors, &|| {});
     print!("{}", replay_eval::table(&study));
     if std::env::var_os("SWEEP_FLIGHTS").is_some() {
         for (seed, fam, r) in &study.scenarios {

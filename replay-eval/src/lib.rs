@@ -33,8 +33,8 @@ use estimator::file::BatterySection;
 use estimator::online::OnlineConfig;
 use estimator::{Params, PolyCurve};
 use flight_sim::{
-    Chemistry, EffectKind, Family, FlightPlan, Logging, Robot, RobotVariant, SimFlight, Withheld,
-    plans, simulate,
+    Chemistry, EffectKind, Family, FlightPlan, Logging, Robot, RobotVariant, SensorErrors,
+    SimFlight, Withheld, plans, simulate_with,
 };
 use flightlog::{Flight, FlightMeta, LogFormat};
 use rand::{RngExt, SeedableRng};
@@ -328,6 +328,18 @@ pub struct PreparedScenario {
 /// Flies a scenario's training and held-out flights and learns its packs (steps 1–3 of the
 /// crate docs).
 pub fn prepare_scenario(family: &Family, seed: u64) -> Result<PreparedScenario, EvalError> {
+    prepare_scenario_with(family, seed, SensorErrors::Drawn)
+}
+
+/// [`prepare_scenario`] with a choice of the sensors' constant errors for every flight of the
+/// scenario, training and held-out (an ablation: how much of the estimator's error the
+/// per-flight sensor scale and offset errors cause). [`SensorErrors::Drawn`] is
+/// [`prepare_scenario`].
+pub fn prepare_scenario_with(
+    family: &Family,
+    seed: u64,
+    sensors: SensorErrors,
+) -> Result<PreparedScenario, EvalError> {
     let robot = Robot::of(family.robot, seed);
     let (train_plans, held_plans) = plans(family, seed);
     let (thrust, power) = robot.rig_sweep(10.0, seed);
@@ -335,7 +347,7 @@ pub fn prepare_scenario(family: &Family, seed: u64) -> Result<PreparedScenario, 
     let label_v = label_cell_v(family.chemistry);
     let fly = |p: &FlightPlan, effect: &Withheld, salt: u64| {
         let s = seed.wrapping_mul(1_000_003).wrapping_add(salt);
-        simulate(family, &robot, p, effect, s)
+        simulate_with(family, &robot, p, effect, s, sensors)
     };
     // Nominal training flights.
     let mut train = Vec::new();
@@ -599,6 +611,16 @@ pub fn family_of(seed: u64, families: &[Family]) -> Family {
 
 /// Runs a study on `threads` workers, calling `progress` after each scenario.
 pub fn study(opts: &StudyOptions, progress: &(dyn Fn() + Sync)) -> Study {
+    study_with(opts, SensorErrors::Drawn, progress)
+}
+
+/// [`study`] on worlds whose sensors carry the constant errors `sensors` says
+/// ([`prepare_scenario_with`]); [`SensorErrors::Drawn`] is [`study`].
+pub fn study_with(
+    opts: &StudyOptions,
+    sensors: SensorErrors,
+    progress: &(dyn Fn() + Sync),
+) -> Study {
     let seeds: Vec<u64> = opts.seeds.clone().collect();
     let threads = opts.threads.max(1);
     let mut results: Vec<(u64, Family, Result<ScenarioOutcome, String>)> = Vec::new();
@@ -610,7 +632,9 @@ pub fn study(opts: &StudyOptions, progress: &(dyn Fn() + Sync)) -> Study {
                     let mut out = Vec::new();
                     for &s in seeds.iter().skip(t).step_by(threads) {
                         let fam = family_of(s, &opts.families);
-                        let r = run_scenario(&fam, s, &opts.config).map_err(|e| e.to_string());
+                        let r = prepare_scenario_with(&fam, s, sensors)
+                            .map(|p| replay_scenario(&p, &opts.config))
+                            .map_err(|e| e.to_string());
                         out.push((s, fam, r));
                         progress();
                     }
