@@ -53,44 +53,10 @@ fn main() {
 }
 
 /// `SWEEP_CFG="capacity_scale_sigma=0.1,voltage_sigma_v=0.05"` overrides the defaults
-/// (`thrust_limit_end=1` turns the thrust-limit end on).
+/// ([`replay_eval::config_from_spec`]).
 fn config_from_env() -> estimator::online::OnlineConfig {
-    let mut c = estimator::online::OnlineConfig::default();
-    let Ok(spec) = std::env::var("SWEEP_CFG") else {
-        return c;
-    };
-    for kv in spec.split(',').filter(|s| !s.is_empty()) {
-        let (k, v) = kv.split_once('=').expect("key=value");
-        let v: f64 = v.parse().expect("a number");
-        if k == "thrust_limit_end" {
-            c.thrust_limit_end = v != 0.0;
-            continue;
-        }
-        let slot = match k {
-            "voltage_sigma_v" => &mut c.voltage_sigma_v,
-            "current_sigma_a" => &mut c.current_sigma_a,
-            "power_sigma_fraction" => &mut c.power_sigma_fraction,
-            "initial_soc_sigma" => &mut c.initial_soc_sigma,
-            "resistance_scale_sigma" => &mut c.resistance_scale_sigma,
-            "capacity_scale_sigma" => &mut c.capacity_scale_sigma,
-            "extra_power_sigma_fraction" => &mut c.extra_power_sigma_fraction,
-            "resistance_drift_per_sqrt_s" => &mut c.resistance_drift_per_sqrt_s,
-            "capacity_drift_per_sqrt_s" => &mut c.capacity_drift_per_sqrt_s,
-            "extra_power_drift_fraction_per_sqrt_s" => &mut c.extra_power_drift_fraction_per_sqrt_s,
-            "voltage_bias_sigma_cell_v" => &mut c.voltage_bias_sigma_cell_v,
-            "voltage_bias_drift_cell_v_per_sqrt_s" => &mut c.voltage_bias_drift_cell_v_per_sqrt_s,
-            "prediction_model_sigma_fraction" => &mut c.prediction_model_sigma_fraction,
-            "end_soc_sigma" => &mut c.end_soc_sigma,
-            "current_scale_sigma" => &mut c.current_scale_sigma,
-            "current_offset_sigma_a" => &mut c.current_offset_sigma_a,
-            "cutoff_curve_sigma_cell_v" => &mut c.cutoff_curve_sigma_cell_v,
-            "voltage_scale_sigma" => &mut c.voltage_scale_sigma,
-            "capacity_fade_sigma" => &mut c.capacity_fade_sigma,
-            "extra_power_thrust_share" => &mut c.extra_power_thrust_share,
-            "extra_power_thrust_share_sigma" => &mut c.extra_power_thrust_share_sigma,
-            other => panic!("unknown key {other}"),
-        };
-        *slot = v;
-    }
-    c
+    std::env::var("SWEEP_CFG").map_or_else(
+        |_| estimator::online::OnlineConfig::default(),
+        |s| replay_eval::config_from_spec(&s).expect("SWEEP_CFG"),
+    )
 }

@@ -832,3 +832,50 @@ pub fn to_json(study: &Study) -> serde_json::Value {
         .collect();
     serde_json::json!({"scenarios": scenarios, "groups": groups})
 }
+
+/// The online estimator's defaults with overrides `key=value,key=value` (the field names of
+/// [`OnlineConfig`]'s numbers; `thrust_limit_end=1` turns the thrust-limit end on): what the
+/// `sweep` and `trace` examples read from `SWEEP_CFG`.
+pub fn config_from_spec(spec: &str) -> Result<OnlineConfig, String> {
+    let mut c = OnlineConfig::default();
+    for kv in spec.split(',').filter(|s| !s.trim().is_empty()) {
+        let (k, v) = kv
+            .split_once('=')
+            .ok_or_else(|| format!("{kv:?} is not key=value"))?;
+        let (k, v) = (k.trim(), v.trim());
+        let v: f64 = v
+            .parse()
+            .map_err(|_| format!("{k}: {v:?} is not a number"))?;
+        if k == "thrust_limit_end" {
+            c.thrust_limit_end = v != 0.0;
+            continue;
+        }
+        let slot = match k {
+            "voltage_sigma_v" => &mut c.voltage_sigma_v,
+            "current_sigma_a" => &mut c.current_sigma_a,
+            "power_sigma_fraction" => &mut c.power_sigma_fraction,
+            "initial_soc_sigma" => &mut c.initial_soc_sigma,
+            "resistance_scale_sigma" => &mut c.resistance_scale_sigma,
+            "capacity_scale_sigma" => &mut c.capacity_scale_sigma,
+            "extra_power_sigma_fraction" => &mut c.extra_power_sigma_fraction,
+            "resistance_drift_per_sqrt_s" => &mut c.resistance_drift_per_sqrt_s,
+            "capacity_drift_per_sqrt_s" => &mut c.capacity_drift_per_sqrt_s,
+            "extra_power_drift_fraction_per_sqrt_s" => &mut c.extra_power_drift_fraction_per_sqrt_s,
+            "voltage_bias_sigma_cell_v" => &mut c.voltage_bias_sigma_cell_v,
+            "voltage_bias_drift_cell_v_per_sqrt_s" => &mut c.voltage_bias_drift_cell_v_per_sqrt_s,
+            "prediction_model_sigma_fraction" => &mut c.prediction_model_sigma_fraction,
+            "end_soc_sigma" => &mut c.end_soc_sigma,
+            "charged_start_soc_sigma" => &mut c.charged_start_soc_sigma,
+            "current_scale_sigma" => &mut c.current_scale_sigma,
+            "current_offset_sigma_a" => &mut c.current_offset_sigma_a,
+            "cutoff_curve_sigma_cell_v" => &mut c.cutoff_curve_sigma_cell_v,
+            "voltage_scale_sigma" => &mut c.voltage_scale_sigma,
+            "capacity_fade_sigma" => &mut c.capacity_fade_sigma,
+            "extra_power_thrust_share" => &mut c.extra_power_thrust_share,
+            "extra_power_thrust_share_sigma" => &mut c.extra_power_thrust_share_sigma,
+            other => return Err(format!("unknown key {other:?}")),
+        };
+        *slot = v;
+    }
+    Ok(c)
+}

@@ -178,3 +178,37 @@ fn the_sensor_ablation_flies_the_same_worlds() {
     );
     assert_ne!(ideal, drawn);
 }
+
+/// `SWEEP_CFG`'s parser: overrides by field name, the thrust-limit switch, and errors that
+/// name what is wrong.
+#[test]
+fn config_specs_override_the_defaults_by_name() {
+    let c = replay_eval::config_from_spec(
+        " charged_start_soc_sigma=0.02, voltage_bias_sigma_cell_v = 0.1,thrust_limit_end=1,",
+    )
+    .unwrap();
+    assert_eq!(c.charged_start_soc_sigma, 0.02);
+    assert_eq!(c.voltage_bias_sigma_cell_v, 0.1);
+    assert!(c.thrust_limit_end);
+    assert_eq!(
+        OnlineConfig {
+            charged_start_soc_sigma: 0.0,
+            voltage_bias_sigma_cell_v: OnlineConfig::default().voltage_bias_sigma_cell_v,
+            thrust_limit_end: false,
+            ..c
+        },
+        OnlineConfig::default()
+    );
+    assert_eq!(
+        replay_eval::config_from_spec("").unwrap(),
+        OnlineConfig::default()
+    );
+    for (bad, says) in [
+        ("end_soc_sigma", "key=value"),
+        ("end_soc_sigma=x", "not a number"),
+        ("no_such_key=1", "unknown key"),
+    ] {
+        let e = replay_eval::config_from_spec(bad).unwrap_err();
+        assert!(e.contains(says), "{bad}: {e}");
+    }
+}
