@@ -12,7 +12,9 @@
 //! - propulsion ([`robot`]): momentum theory with a figure of merit and a stall term, calibrated
 //!   to the paper's rig curve, thrust limit against voltage, lead losses;
 //! - logging ([`Logging`]): 1–50 Hz, offset and scale errors of the voltage and current
-//!   sensors, noise, quantisation, dropped samples and bursts, clock jitter, current optional;
+//!   sensors, noise, quantisation, dropped samples and bursts, clock jitter, current optional
+//!   ([`simulate_with`] and [`SensorErrors`] fly a flight with calibrated sensors instead, for an
+//!   ablation; [`simulate`] is unchanged);
 //! - effects a scenario withholds ([`EffectKind`]): each of the diagnosis's library effects in
 //!   this crate's own physical form (a ceiling effect after Sanchez-Cuevas et al., climb power
 //!   from momentum theory, airframe download, …), and two outside it.

@@ -25,6 +25,10 @@
 //! families (`lipo|nmc` × `lab-1hz|fc-10hz` × `paper`, as in gap-eval) only; every other family
 //! (LiHV, NCA, LiFePO₄, voltage-only 5 Hz and 50 Hz logging, every varied robot) is held out.
 //! [`Study::groups`] reports both.
+//!
+//! Sensor ablation: [`study_with`] and [`prepare_scenario_with`] fly the same worlds with
+//! calibrated sensors ([`flight_sim::SensorErrors`]: no per-flight scale or offset error on the
+//! voltage, the current or both), so a study tells how much of the error the sensors cause.
 
 use std::ops::Range;
 use std::path::Path;
