@@ -12,7 +12,9 @@
 //! - propulsion ([`robot`]): momentum theory with a figure of merit and a stall term, calibrated
 //!   to the paper's rig curve, thrust limit against voltage, lead losses;
 //! - logging ([`Logging`]): 1–50 Hz, offset and scale errors of the voltage and current
-//!   sensors, noise, quantisation, dropped samples and bursts, clock jitter, current optional;
+//!   sensors, noise, quantisation, dropped samples and bursts, clock jitter, current optional
+//!   ([`simulate_with`] and [`SensorErrors`] fly a flight with calibrated sensors instead, for an
+//!   ablation; [`simulate`] is unchanged);
 //! - effects a scenario withholds ([`EffectKind`]): each of the diagnosis's library effects in
 //!   this crate's own physical form (a ceiling effect after Sanchez-Cuevas et al., climb power
 //!   from momentum theory, airframe download, …), and two outside it.
@@ -44,7 +46,7 @@ use serde::Serialize;
 
 pub use mission::{FlightPlan, HALL_CEILING_M, Leg, plans};
 pub use robot::{Propulsion, Robot};
-pub use simulate::{SimFlight, simulate};
+pub use simulate::{SensorErrors, SimFlight, simulate, simulate_with};
 pub use world::{Chemistry, EffectKind, Family, Logging, NoFamily, RobotVariant, Withheld};
 
 /// A pack as its label says.
@@ -161,9 +163,29 @@ pub fn generate(family: &Family, effect: &Withheld, seed: u64) -> GeneratedSet {
                     EffectKind::DrainingPayload => {
                         let mut kept = p.clone();
                         kept.payload_mass_kg += effect.magnitude;
-                        simulate::run(family, &robot, &kept, &Withheld::NONE, s, false).endurance_s
+                        simulate::run(
+                            family,
+                            &robot,
+                            &kept,
+                            &Withheld::NONE,
+                            s,
+                            false,
+                            SensorErrors::Drawn,
+                        )
+                        .endurance_s
                     }
-                    _ => simulate::run(family, &robot, p, &Withheld::NONE, s, false).endurance_s,
+                    _ => {
+                        simulate::run(
+                            family,
+                            &robot,
+                            p,
+                            &Withheld::NONE,
+                            s,
+                            false,
+                            SensorErrors::Drawn,
+                        )
+                        .endurance_s
+                    }
                 };
                 endurance_s.push((p.name.clone(), with.endurance_s, without));
                 with

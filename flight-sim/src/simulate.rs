@@ -4,6 +4,7 @@ use std::fmt::Write as _;
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
 
 use crate::mission::{FlightPlan, HALL_CEILING_M, Leg, LoggedPhase};
 use crate::ocv::{OcvCurve, OcvScatter};
@@ -91,6 +92,58 @@ struct Sensors {
     i_offset: f64,
 }
 
+/// Which of a flight's constant sensor errors (the scale and offset of its voltage and current
+/// sensors, drawn once per flight from the logging profile) the log carries. Noise,
+/// quantisation, dropped samples and jitter are kept either way. The errors are drawn in every
+/// case, so the pack, the noise and everything else of a seed stay the same: an ablation
+/// compares like with like.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SensorErrors {
+    /// As the logging profile draws them (the default: what every study flies).
+    #[default]
+    Drawn,
+    /// A calibrated voltage sensor (scale 1, offset 0); the current sensor's errors drawn.
+    IdealVoltage,
+    /// A calibrated current sensor (scale 1, offset 0); the voltage sensor's errors drawn.
+    IdealCurrent,
+    /// Both sensors calibrated.
+    Ideal,
+}
+
+impl SensorErrors {
+    /// Every choice, default first.
+    pub const ALL: [SensorErrors; 4] = [
+        SensorErrors::Drawn,
+        SensorErrors::IdealVoltage,
+        SensorErrors::IdealCurrent,
+        SensorErrors::Ideal,
+    ];
+
+    /// Short name (`drawn`, `ideal-voltage`, `ideal-current`, `ideal`).
+    pub fn name(self) -> &'static str {
+        match self {
+            SensorErrors::Drawn => "drawn",
+            SensorErrors::IdealVoltage => "ideal-voltage",
+            SensorErrors::IdealCurrent => "ideal-current",
+            SensorErrors::Ideal => "ideal",
+        }
+    }
+
+    /// The choice of a short name.
+    pub fn parse(s: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|e| e.name() == s.trim())
+    }
+
+    fn voltage(self) -> bool {
+        matches!(self, SensorErrors::Drawn | SensorErrors::IdealCurrent)
+    }
+
+    fn current(self) -> bool {
+        matches!(self, SensorErrors::Drawn | SensorErrors::IdealVoltage)
+    }
+}
+
 /// Simulates one flight of `plan` in `family` with `effect`. Same seed, same pack, sensors and
 /// noise whatever the effect, so runs with and without it compare.
 pub fn simulate(
@@ -100,7 +153,20 @@ pub fn simulate(
     effect: &Withheld,
     seed: u64,
 ) -> SimFlight {
-    run(family, robot, plan, effect, seed, true)
+    run(family, robot, plan, effect, seed, true, SensorErrors::Drawn)
+}
+
+/// [`simulate`] with a choice of the sensors' constant errors ([`SensorErrors::Drawn`]: the
+/// same flight as [`simulate`], byte for byte).
+pub fn simulate_with(
+    family: &Family,
+    robot: &Robot,
+    plan: &FlightPlan,
+    effect: &Withheld,
+    seed: u64,
+    sensors: SensorErrors,
+) -> SimFlight {
+    run(family, robot, plan, effect, seed, true, sensors)
 }
 
 /// Simulates a flight; `log: false` skips the log (only the endurance is wanted).
@@ -111,6 +177,7 @@ pub(crate) fn run(
     effect: &Withheld,
     seed: u64,
     log: bool,
+    errors: SensorErrors,
 ) -> SimFlight {
     let mut pack_rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7061_636b);
     let mut noise_rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6e6f_6973);
@@ -124,12 +191,18 @@ pub(crate) fn run(
         effect.of(EffectKind::CapacityFade),
     );
     let sensor = family.logging.sensors();
-    let s = Sensors {
+    let mut s = Sensors {
         v_scale: 1.0 + sensor.v_scale_sd * normal(&mut pack_rng),
         v_offset: sensor.v_offset_sd * normal(&mut pack_rng),
         i_scale: 1.0 + sensor.i_scale_sd * normal(&mut pack_rng),
         i_offset: sensor.i_offset_sd * normal(&mut pack_rng),
     };
+    if !errors.voltage() {
+        (s.v_scale, s.v_offset) = (1.0, 0.0);
+    }
+    if !errors.current() {
+        (s.i_scale, s.i_offset) = (1.0, 0.0);
+    }
     let start_soc = 1.0 - 0.012 * pack_rng.random::<f64>();
     let ambient_k = plan.ambient_c + 273.15;
     let logged_ambient_c = plan.ambient_c + 0.5 * normal(&mut pack_rng);

@@ -156,3 +156,45 @@ fn families_are_selected_by_patterns_and_the_study_s_tuning_choice() {
     assert!(Family::select(" , ", lfp_tuned).is_err());
     assert!(Family::select("tuning", |_| false).is_err());
 }
+
+/// The sensor ablation's switch: `SensorErrors::Drawn` is the default flight byte for byte; a
+/// calibrated current sensor changes the logged current only (the autopilot lands on the
+/// voltage, so the flight and its voltage column stay); a calibrated voltage sensor changes the
+/// logged voltage (and may move the landing: the autopilot's reading is what reaches the
+/// cut-off).
+#[test]
+fn ideal_sensors_change_only_what_they_measure() {
+    use flight_sim::{SensorErrors, simulate, simulate_with};
+    let fam = family(Chemistry::LiPo, Logging::Fc10Hz);
+    let robot = flight_sim::Robot::of(fam.robot, 4);
+    let (train, _) = flight_sim::plans(&fam, 4);
+    let plan = &train[0];
+    let effect = Withheld::NONE;
+    let drawn = simulate(&fam, &robot, plan, &effect, 11);
+    assert_eq!(
+        simulate_with(&fam, &robot, plan, &effect, 11, SensorErrors::Drawn),
+        drawn
+    );
+    let column = |f: &flight_sim::SimFlight, k: usize| -> Vec<String> {
+        f.csv
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(k).unwrap().to_owned())
+            .collect()
+    };
+    let ic = simulate_with(&fam, &robot, plan, &effect, 11, SensorErrors::IdealCurrent);
+    assert_eq!(ic.endurance_s, drawn.endurance_s);
+    assert_eq!(column(&ic, 1), column(&drawn, 1), "voltage column");
+    assert_ne!(column(&ic, 2), column(&drawn, 2), "current column");
+    let iv = simulate_with(&fam, &robot, plan, &effect, 11, SensorErrors::IdealVoltage);
+    assert_ne!(column(&iv, 1), column(&drawn, 1), "voltage column");
+    assert!((iv.endurance_s / drawn.endurance_s - 1.0).abs() < 0.1);
+    // Both ideal: the voltage log of the ideal voltage sensor.
+    let both = simulate_with(&fam, &robot, plan, &effect, 11, SensorErrors::Ideal);
+    assert_eq!(both.endurance_s, iv.endurance_s);
+    assert_eq!(column(&both, 1), column(&iv, 1));
+    for e in SensorErrors::ALL {
+        assert_eq!(SensorErrors::parse(e.name()), Some(e));
+    }
+    assert_eq!(SensorErrors::parse("calibrated"), None);
+}

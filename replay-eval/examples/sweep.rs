@@ -3,6 +3,8 @@
 //! `SWEEP_FLIGHTS=1` also lists every flight: its error at 50 % and the filter's state of charge
 //! and curve offset when the pack reached the cut-off (a state of charge well above 0 there is a
 //! pack that ran out earlier than the learned section says: fade, cold, a knee the curve lacks).
+//! `SWEEP_SENSORS=ideal` (or `ideal-voltage`, `ideal-current`) flies the same worlds with
+//! calibrated sensors (no per-flight scale or offset error; noise kept): the sensor ablation.
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -16,7 +18,10 @@ fn main() {
         threads: 2,
         config: config_from_env(),
     };
-    let study = replay_eval::study(&opts, &|| {});
+    let sensors = std::env::var("SWEEP_SENSORS").map_or(flight_sim::SensorErrors::Drawn, |s| {
+        flight_sim::SensorErrors::parse(&s).expect("drawn, ideal-voltage, ideal-current or ideal")
+    });
+    let study = replay_eval::study_with(&opts, sensors, &|| {});
     print!("{}", replay_eval::table(&study));
     if std::env::var_os("SWEEP_FLIGHTS").is_some() {
         for (seed, fam, r) in &study.scenarios {
@@ -48,44 +53,10 @@ fn main() {
 }
 
 /// `SWEEP_CFG="capacity_scale_sigma=0.1,voltage_sigma_v=0.05"` overrides the defaults
-/// (`thrust_limit_end=1` turns the thrust-limit end on).
+/// ([`replay_eval::config_from_spec`]).
 fn config_from_env() -> estimator::online::OnlineConfig {
-    let mut c = estimator::online::OnlineConfig::default();
-    let Ok(spec) = std::env::var("SWEEP_CFG") else {
-        return c;
-    };
-    for kv in spec.split(',').filter(|s| !s.is_empty()) {
-        let (k, v) = kv.split_once('=').expect("key=value");
-        let v: f64 = v.parse().expect("a number");
-        if k == "thrust_limit_end" {
-            c.thrust_limit_end = v != 0.0;
-            continue;
-        }
-        let slot = match k {
-            "voltage_sigma_v" => &mut c.voltage_sigma_v,
-            "current_sigma_a" => &mut c.current_sigma_a,
-            "power_sigma_fraction" => &mut c.power_sigma_fraction,
-            "initial_soc_sigma" => &mut c.initial_soc_sigma,
-            "resistance_scale_sigma" => &mut c.resistance_scale_sigma,
-            "capacity_scale_sigma" => &mut c.capacity_scale_sigma,
-            "extra_power_sigma_fraction" => &mut c.extra_power_sigma_fraction,
-            "resistance_drift_per_sqrt_s" => &mut c.resistance_drift_per_sqrt_s,
-            "capacity_drift_per_sqrt_s" => &mut c.capacity_drift_per_sqrt_s,
-            "extra_power_drift_fraction_per_sqrt_s" => &mut c.extra_power_drift_fraction_per_sqrt_s,
-            "voltage_bias_sigma_cell_v" => &mut c.voltage_bias_sigma_cell_v,
-            "voltage_bias_drift_cell_v_per_sqrt_s" => &mut c.voltage_bias_drift_cell_v_per_sqrt_s,
-            "prediction_model_sigma_fraction" => &mut c.prediction_model_sigma_fraction,
-            "end_soc_sigma" => &mut c.end_soc_sigma,
-            "current_scale_sigma" => &mut c.current_scale_sigma,
-            "current_offset_sigma_a" => &mut c.current_offset_sigma_a,
-            "cutoff_curve_sigma_cell_v" => &mut c.cutoff_curve_sigma_cell_v,
-            "voltage_scale_sigma" => &mut c.voltage_scale_sigma,
-            "capacity_fade_sigma" => &mut c.capacity_fade_sigma,
-            "extra_power_thrust_share" => &mut c.extra_power_thrust_share,
-            "extra_power_thrust_share_sigma" => &mut c.extra_power_thrust_share_sigma,
-            other => panic!("unknown key {other}"),
-        };
-        *slot = v;
-    }
-    c
+    std::env::var("SWEEP_CFG").map_or_else(
+        |_| estimator::online::OnlineConfig::default(),
+        |s| replay_eval::config_from_spec(&s).expect("SWEEP_CFG"),
+    )
 }

@@ -1,6 +1,8 @@
 //! Traces the online estimator through one scenario's held-out flights: at every 5 % of each
 //! flight the predicted and true remaining time and the filter's state.
-//! `cargo run --release -p replay-eval --example trace -- FAMILY SEED [STEP]`.
+//! `cargo run --release -p replay-eval --example trace -- FAMILY SEED [STEP]`
+//! (`SWEEP_SENSORS=ideal` and the like: calibrated sensors; `SWEEP_CFG`: the estimator's
+//! settings; both as in the sweep example).
 
 use replay::OnlineBuilder;
 use replay::online::FileOnline;
@@ -11,12 +13,18 @@ fn main() {
         .expect("a family");
     let seed: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(0);
     let step: f64 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(0.05);
-    let p = replay_eval::prepare_scenario(&fam, seed).expect("scenario");
+    let sensors = std::env::var("SWEEP_SENSORS").map_or(flight_sim::SensorErrors::Drawn, |s| {
+        flight_sim::SensorErrors::parse(&s).expect("drawn, ideal-voltage, ideal-current or ideal")
+    });
+    let p = replay_eval::prepare_scenario_with(&fam, seed, sensors).expect("scenario");
     println!("seed {seed} {} {:?}", fam.name(), p.condition);
     for k in &p.packs {
         println!("  pack {k:?}");
     }
-    let config = estimator::online::OnlineConfig::default();
+    let config = std::env::var("SWEEP_CFG").map_or_else(
+        |_| estimator::online::OnlineConfig::default(),
+        |s| replay_eval::config_from_spec(&s).expect("SWEEP_CFG"),
+    );
     for (flight, battery) in &p.flights {
         let Ok(span) = replay::cutoff::detect(flight) else {
             continue;

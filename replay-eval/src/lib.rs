@@ -25,6 +25,10 @@
 //! families (`lipo|nmc` × `lab-1hz|fc-10hz` × `paper`, as in gap-eval) only; every other family
 //! (LiHV, NCA, LiFePO₄, voltage-only 5 Hz and 50 Hz logging, every varied robot) is held out.
 //! [`Study::groups`] reports both.
+//!
+//! Sensor ablation: [`study_with`] and [`prepare_scenario_with`] fly the same worlds with
+//! calibrated sensors ([`flight_sim::SensorErrors`]: no per-flight scale or offset error on the
+//! voltage, the current or both), so a study tells how much of the error the sensors cause.
 
 use std::ops::Range;
 use std::path::Path;
@@ -33,8 +37,8 @@ use estimator::file::BatterySection;
 use estimator::online::OnlineConfig;
 use estimator::{Params, PolyCurve};
 use flight_sim::{
-    Chemistry, EffectKind, Family, FlightPlan, Logging, Robot, RobotVariant, SimFlight, Withheld,
-    plans, simulate,
+    Chemistry, EffectKind, Family, FlightPlan, Logging, Robot, RobotVariant, SensorErrors,
+    SimFlight, Withheld, plans, simulate_with,
 };
 use flightlog::{Flight, FlightMeta, LogFormat};
 use rand::{RngExt, SeedableRng};
@@ -328,6 +332,18 @@ pub struct PreparedScenario {
 /// Flies a scenario's training and held-out flights and learns its packs (steps 1–3 of the
 /// crate docs).
 pub fn prepare_scenario(family: &Family, seed: u64) -> Result<PreparedScenario, EvalError> {
+    prepare_scenario_with(family, seed, SensorErrors::Drawn)
+}
+
+/// [`prepare_scenario`] with a choice of the sensors' constant errors for every flight of the
+/// scenario, training and held-out (an ablation: how much of the estimator's error the
+/// per-flight sensor scale and offset errors cause). [`SensorErrors::Drawn`] is
+/// [`prepare_scenario`].
+pub fn prepare_scenario_with(
+    family: &Family,
+    seed: u64,
+    sensors: SensorErrors,
+) -> Result<PreparedScenario, EvalError> {
     let robot = Robot::of(family.robot, seed);
     let (train_plans, held_plans) = plans(family, seed);
     let (thrust, power) = robot.rig_sweep(10.0, seed);
@@ -335,7 +351,7 @@ pub fn prepare_scenario(family: &Family, seed: u64) -> Result<PreparedScenario, 
     let label_v = label_cell_v(family.chemistry);
     let fly = |p: &FlightPlan, effect: &Withheld, salt: u64| {
         let s = seed.wrapping_mul(1_000_003).wrapping_add(salt);
-        simulate(family, &robot, p, effect, s)
+        simulate_with(family, &robot, p, effect, s, sensors)
     };
     // Nominal training flights.
     let mut train = Vec::new();
@@ -599,6 +615,16 @@ pub fn family_of(seed: u64, families: &[Family]) -> Family {
 
 /// Runs a study on `threads` workers, calling `progress` after each scenario.
 pub fn study(opts: &StudyOptions, progress: &(dyn Fn() + Sync)) -> Study {
+    study_with(opts, SensorErrors::Drawn, progress)
+}
+
+/// [`study`] on worlds whose sensors carry the constant errors `sensors` says
+/// ([`prepare_scenario_with`]); [`SensorErrors::Drawn`] is [`study`].
+pub fn study_with(
+    opts: &StudyOptions,
+    sensors: SensorErrors,
+    progress: &(dyn Fn() + Sync),
+) -> Study {
     let seeds: Vec<u64> = opts.seeds.clone().collect();
     let threads = opts.threads.max(1);
     let mut results: Vec<(u64, Family, Result<ScenarioOutcome, String>)> = Vec::new();
@@ -610,7 +636,9 @@ pub fn study(opts: &StudyOptions, progress: &(dyn Fn() + Sync)) -> Study {
                     let mut out = Vec::new();
                     for &s in seeds.iter().skip(t).step_by(threads) {
                         let fam = family_of(s, &opts.families);
-                        let r = run_scenario(&fam, s, &opts.config).map_err(|e| e.to_string());
+                        let r = prepare_scenario_with(&fam, s, sensors)
+                            .map(|p| replay_scenario(&p, &opts.config))
+                            .map_err(|e| e.to_string());
                         out.push((s, fam, r));
                         progress();
                     }
@@ -807,4 +835,51 @@ pub fn to_json(study: &Study) -> serde_json::Value {
         })
         .collect();
     serde_json::json!({"scenarios": scenarios, "groups": groups})
+}
+
+/// The online estimator's defaults with overrides `key=value,key=value` (the field names of
+/// [`OnlineConfig`]'s numbers; `thrust_limit_end=1` turns the thrust-limit end on): what the
+/// `sweep` and `trace` examples read from `SWEEP_CFG`.
+pub fn config_from_spec(spec: &str) -> Result<OnlineConfig, String> {
+    let mut c = OnlineConfig::default();
+    for kv in spec.split(',').filter(|s| !s.trim().is_empty()) {
+        let (k, v) = kv
+            .split_once('=')
+            .ok_or_else(|| format!("{kv:?} is not key=value"))?;
+        let (k, v) = (k.trim(), v.trim());
+        let v: f64 = v
+            .parse()
+            .map_err(|_| format!("{k}: {v:?} is not a number"))?;
+        if k == "thrust_limit_end" {
+            c.thrust_limit_end = v != 0.0;
+            continue;
+        }
+        let slot = match k {
+            "voltage_sigma_v" => &mut c.voltage_sigma_v,
+            "current_sigma_a" => &mut c.current_sigma_a,
+            "power_sigma_fraction" => &mut c.power_sigma_fraction,
+            "initial_soc_sigma" => &mut c.initial_soc_sigma,
+            "resistance_scale_sigma" => &mut c.resistance_scale_sigma,
+            "capacity_scale_sigma" => &mut c.capacity_scale_sigma,
+            "extra_power_sigma_fraction" => &mut c.extra_power_sigma_fraction,
+            "resistance_drift_per_sqrt_s" => &mut c.resistance_drift_per_sqrt_s,
+            "capacity_drift_per_sqrt_s" => &mut c.capacity_drift_per_sqrt_s,
+            "extra_power_drift_fraction_per_sqrt_s" => &mut c.extra_power_drift_fraction_per_sqrt_s,
+            "voltage_bias_sigma_cell_v" => &mut c.voltage_bias_sigma_cell_v,
+            "voltage_bias_drift_cell_v_per_sqrt_s" => &mut c.voltage_bias_drift_cell_v_per_sqrt_s,
+            "prediction_model_sigma_fraction" => &mut c.prediction_model_sigma_fraction,
+            "end_soc_sigma" => &mut c.end_soc_sigma,
+            "charged_start_soc_sigma" => &mut c.charged_start_soc_sigma,
+            "current_scale_sigma" => &mut c.current_scale_sigma,
+            "current_offset_sigma_a" => &mut c.current_offset_sigma_a,
+            "cutoff_curve_sigma_cell_v" => &mut c.cutoff_curve_sigma_cell_v,
+            "voltage_scale_sigma" => &mut c.voltage_scale_sigma,
+            "capacity_fade_sigma" => &mut c.capacity_fade_sigma,
+            "extra_power_thrust_share" => &mut c.extra_power_thrust_share,
+            "extra_power_thrust_share_sigma" => &mut c.extra_power_thrust_share_sigma,
+            other => return Err(format!("unknown key {other:?}")),
+        };
+        *slot = v;
+    }
+    Ok(c)
 }

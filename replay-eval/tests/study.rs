@@ -138,3 +138,77 @@ fn prepared_flights_carry_the_learned_curve_sigma() {
         }
     }
 }
+
+/// The sensor ablation flies the same worlds: a voltage-only log has no current sensor, so
+/// calibrating the current sensor changes nothing there; calibrating the voltage sensor (and
+/// both) changes the logs, and with them the estimates, of the same flights.
+#[test]
+fn the_sensor_ablation_flies_the_same_worlds() {
+    use flight_sim::SensorErrors;
+    let opts = StudyOptions {
+        seeds: 2..3,
+        families: select_families("lipo/vonly-5hz/paper").unwrap(),
+        threads: 1,
+        config: OnlineConfig::default(),
+    };
+    let errors = |sensors| {
+        let s = replay_eval::study_with(&opts, sensors, &|| {});
+        let o = s.scenarios[0].2.as_ref().unwrap().clone();
+        o.flights
+            .iter()
+            .map(|f| (f.name.clone(), f.checkpoints[1].predicted_remaining_s))
+            .collect::<Vec<_>>()
+    };
+    let drawn = errors(SensorErrors::Drawn);
+    assert!(!drawn.is_empty());
+    let plain = small("lipo/vonly-5hz/paper", 2..3);
+    let o = plain.scenarios[0].2.as_ref().unwrap();
+    assert_eq!(
+        o.flights
+            .iter()
+            .map(|f| (f.name.clone(), f.checkpoints[1].predicted_remaining_s))
+            .collect::<Vec<_>>(),
+        drawn
+    );
+    assert_eq!(errors(SensorErrors::IdealCurrent), drawn);
+    let ideal = errors(SensorErrors::Ideal);
+    assert_eq!(
+        ideal.iter().map(|f| &f.0).collect::<Vec<_>>(),
+        drawn.iter().map(|f| &f.0).collect::<Vec<_>>()
+    );
+    assert_ne!(ideal, drawn);
+}
+
+/// `SWEEP_CFG`'s parser: overrides by field name, the thrust-limit switch, and errors that
+/// name what is wrong.
+#[test]
+fn config_specs_override_the_defaults_by_name() {
+    let c = replay_eval::config_from_spec(
+        " charged_start_soc_sigma=0.02, voltage_bias_sigma_cell_v = 0.1,thrust_limit_end=1,",
+    )
+    .unwrap();
+    assert_eq!(c.charged_start_soc_sigma, 0.02);
+    assert_eq!(c.voltage_bias_sigma_cell_v, 0.1);
+    assert!(c.thrust_limit_end);
+    assert_eq!(
+        OnlineConfig {
+            charged_start_soc_sigma: 0.0,
+            voltage_bias_sigma_cell_v: OnlineConfig::default().voltage_bias_sigma_cell_v,
+            thrust_limit_end: false,
+            ..c
+        },
+        OnlineConfig::default()
+    );
+    assert_eq!(
+        replay_eval::config_from_spec("").unwrap(),
+        OnlineConfig::default()
+    );
+    for (bad, says) in [
+        ("end_soc_sigma", "key=value"),
+        ("end_soc_sigma=x", "not a number"),
+        ("no_such_key=1", "unknown key"),
+    ] {
+        let e = replay_eval::config_from_spec(bad).unwrap_err();
+        assert!(e.contains(says), "{bad}: {e}");
+    }
+}

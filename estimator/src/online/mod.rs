@@ -271,6 +271,16 @@ pub struct OnlineConfig {
     /// coverage gained on held-out sets; without this term the held-out families are covered
     /// less than with it (README, "How long can it still fly?").
     pub end_soc_sigma: f64,
+    /// The pack was charged full before the first sample: when above 0, the state of charge
+    /// read from the first voltage is fused with "full" (1, with this standard deviation: how
+    /// full a charger leaves it and how far the battery model's top is from that), so the
+    /// first voltage's misfit goes to the curve offset (a voltage sensor's scale and offset, a
+    /// cold or aged pack's sag, the learned curve's top) in proportion to their variances
+    /// instead of to the state of charge. On a flat top a 1 % voltage-sensor error reads as
+    /// several percent of charge, which the offset's random walk then keeps for the whole
+    /// flight. Default 0 (off): the estimator does not know how the pack was charged; a pilot
+    /// who takes off on a freshly charged pack can say so (0.02: a charger's full within 2 %).
+    pub charged_start_soc_sigma: f64,
 }
 
 impl Default for OnlineConfig {
@@ -305,6 +315,7 @@ impl Default for OnlineConfig {
             extra_power_thrust_share: 1.0,
             extra_power_thrust_share_sigma: 0.29,
             end_soc_sigma: 0.08,
+            charged_start_soc_sigma: 0.0,
         }
     }
 }
@@ -364,6 +375,10 @@ impl OnlineConfig {
                 self.prediction_model_sigma_fraction,
             ),
             ("end state-of-charge sigma", self.end_soc_sigma),
+            (
+                "charged start state-of-charge sigma",
+                self.charged_start_soc_sigma,
+            ),
             ("current scale sigma", self.current_scale_sigma),
             ("current offset sigma (A)", self.current_offset_sigma_a),
             (
@@ -857,6 +872,14 @@ impl OnlineEstimator {
         let cov = -(sb * sb / slope).clamp(-0.999 * soc_sigma * sb, 0.999 * soc_sigma * sb);
         self.p[(SOC, VBIAS)] = cov;
         self.p[(VBIAS, SOC)] = cov;
+        if c.charged_start_soc_sigma > 0.0 {
+            // "Charged full" as a measurement of the state of charge: through the correlation
+            // above, what the first voltage said beyond it moves to the curve offset.
+            let mut h = SMatrix::<f64, 1, STATES>::zeros();
+            h[SOC] = 1.0;
+            let sd = c.charged_start_soc_sigma;
+            self.scalar_update(&h, 1.0 - self.x[SOC], sd * sd);
+        }
         self.initialised = true;
         self.flags &= !Estimate::FLAG_NOT_INITIALISED;
         self.last_time_s = t;
