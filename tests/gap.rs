@@ -363,3 +363,60 @@ fn dataflash_folder_leaves_out_a_held_out_flight_too_short_to_score() {
     );
     assert!(err.contains("no held-out flight can be scored"), "{err}");
 }
+
+/// Why a gap is `unexplained` is printed in words with its numbers, and `--json` carries the
+/// same sentences; both rules are computed whichever sets the flag. A payload that drains in
+/// flight (outside the library) leaves every flight's power drifting down from the first to
+/// the second half, beyond the flights' own scatter.
+#[test]
+fn unexplained_says_why_in_text_and_json_alike() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("set");
+    ok(&[
+        "simulate-flights",
+        "-o",
+        out.to_str().unwrap(),
+        "--family",
+        "nmc/lab-1hz/paper",
+        "--effect",
+        "draining_payload=0.05",
+        "--seed",
+        "2",
+    ]);
+    let (train, held) = (out.join("train"), out.join("heldout"));
+    for rule in ["chi2", "systematic"] {
+        let args = [
+            "gap",
+            train.to_str().unwrap(),
+            "--holdout",
+            held.to_str().unwrap(),
+            "--unexplained-rule",
+            rule,
+        ];
+        let v = json(&[&args[..], &["--json"]].concat());
+        let text = run(&args);
+        assert!(text.status.success());
+        let text = String::from_utf8(text.stdout).unwrap();
+        assert_eq!(v["unexplained_rule"], rule);
+        assert_eq!(v["unexplained"], true, "{text}");
+        assert_eq!(v["unexplained_by_systematic"], true);
+        let reasons = v["unexplained_reasons"].as_array().unwrap();
+        assert!(!reasons.is_empty());
+        for r in reasons {
+            let line = format!("unexplained ({rule} rule): {}", r.as_str().unwrap());
+            assert!(text.lines().any(|l| l == line), "{line}\nnot in\n{text}");
+        }
+        // The systematic check's numbers: the drift shared by all 12 flights.
+        let drift = v["systematic"]["patterns"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p["quantity"] == "power_drift")
+            .unwrap();
+        assert_eq!(drift["set"], "all");
+        assert_eq!(drift["flights"], 12);
+        assert!(drift["systematic"] == true && drift["mean"].as_f64().unwrap() < -1.5);
+        let mean = format!("{:+.2} %", drift["mean"].as_f64().unwrap());
+        assert!(text.contains(&mean), "{mean} not in\n{text}");
+    }
+}

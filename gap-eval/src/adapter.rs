@@ -9,7 +9,7 @@
 use estimator::PolyCurve;
 use flightlog::Flight;
 use flightlog::summary::error_chain;
-use gap::diagnose::{DiagnoseOptions, diagnose};
+use gap::diagnose::{DiagnoseOptions, UnexplainedRule, diagnose};
 use gap::flight::FlightRecord;
 use gap::logs::record_from_log;
 use gap::model::Model;
@@ -21,8 +21,14 @@ use crate::EvalError;
 pub struct Outcome {
     /// Selected effects by name (empty: none).
     pub verdict: Vec<String>,
-    /// A significant gap remains that no candidate explains.
+    /// A significant gap remains that no candidate explains (by the rule the study runs).
     pub unexplained: bool,
+    /// Why, in the diagnosis's words with its numbers (empty when not unexplained).
+    pub unexplained_reasons: Vec<String>,
+    /// What the χ² rule says, whichever rule is set.
+    pub unexplained_by_chi2: bool,
+    /// What the systematic rule says, whichever rule is set.
+    pub unexplained_by_systematic: bool,
     /// Each selected effect's share of the held-out gap.
     pub shares: Vec<(String, f64)>,
     /// Held-out mean absolute endurance error before any effect, % (cut-off flights).
@@ -34,12 +40,30 @@ pub struct Outcome {
     pub heldout_headline: (f64, f64),
 }
 
-/// Diagnoses `train` against `heldout` with the rig curve as baseline.
+/// Diagnoses `train` against `heldout` with the rig curve as baseline (the default rule for
+/// `unexplained`).
 pub fn diagnose_blind(
     train: &[Flight],
     heldout: &[Flight],
     curve: &PolyCurve,
     rotor_count: u8,
+) -> Result<Outcome, EvalError> {
+    diagnose_blind_with(
+        train,
+        heldout,
+        curve,
+        rotor_count,
+        UnexplainedRule::default(),
+    )
+}
+
+/// [`diagnose_blind`] with the rule that sets `unexplained`.
+pub fn diagnose_blind_with(
+    train: &[Flight],
+    heldout: &[Flight],
+    curve: &PolyCurve,
+    rotor_count: u8,
+    rule: UnexplainedRule,
 ) -> Result<Outcome, EvalError> {
     let convert = |fs: &[Flight]| -> Result<Vec<FlightRecord>, EvalError> {
         fs.iter()
@@ -54,12 +78,18 @@ pub fn diagnose_blind(
         Model { curve, rotor_count },
         &tr,
         &he,
-        &DiagnoseOptions::default(),
+        &DiagnoseOptions {
+            unexplained_rule: rule,
+            ..DiagnoseOptions::default()
+        },
     )
     .map_err(|e| EvalError::Diagnosis(error_chain(&e)))?;
     Ok(Outcome {
         verdict: d.verdict.iter().map(|e| e.name().to_owned()).collect(),
         unexplained: d.unexplained,
+        unexplained_reasons: d.unexplained_reasons.clone(),
+        unexplained_by_chi2: d.unexplained_by_chi2,
+        unexplained_by_systematic: d.unexplained_by_systematic,
         shares: d
             .effects
             .iter()

@@ -37,6 +37,7 @@ use flight_sim::{
 };
 use flightlog::summary::error_chain;
 use flightlog::{Flight, FlightMeta, LogFormat};
+pub use gap::diagnose::UnexplainedRule;
 use serde::Serialize;
 
 /// What can go wrong in the study.
@@ -149,8 +150,14 @@ pub struct ScenarioResult {
     pub verdict: String,
     /// The selected effect with the largest share of the gap.
     pub top_effect: Option<String>,
-    /// Flagged `unexplained`.
+    /// Flagged `unexplained` (by the rule the study runs).
     pub unexplained: bool,
+    /// Why, in the diagnosis's words with its numbers.
+    pub unexplained_reasons: Vec<String>,
+    /// What the χ² rule says, whichever rule the study runs.
+    pub unexplained_by_chi2: bool,
+    /// What the systematic rule says, whichever rule the study runs.
+    pub unexplained_by_systematic: bool,
     /// Counted in the strict score (none, outside, or a library effect with impact ≥ 2 %).
     pub strict_scored: bool,
     /// Strictly right.
@@ -221,6 +228,9 @@ pub fn score(truth: &Truth, family: &Family, o: &adapter::Outcome) -> ScenarioRe
         verdict,
         top_effect: top,
         unexplained: o.unexplained,
+        unexplained_reasons: o.unexplained_reasons.clone(),
+        unexplained_by_chi2: o.unexplained_by_chi2,
+        unexplained_by_systematic: o.unexplained_by_systematic,
         strict_scored,
         strict_correct,
         heldout_endurance_before_pct: o.heldout_endurance_before_pct,
@@ -232,6 +242,15 @@ pub fn score(truth: &Truth, family: &Family, o: &adapter::Outcome) -> ScenarioRe
 /// Runs one scenario blind and scores it: the family from `families` and the effect from the
 /// seed.
 pub fn run_scenario(seed: u64, families: &[Family]) -> Result<ScenarioResult, EvalError> {
+    run_scenario_with(seed, families, UnexplainedRule::default())
+}
+
+/// [`run_scenario`] with the rule that sets the diagnosis's `unexplained` flag.
+pub fn run_scenario_with(
+    seed: u64,
+    families: &[Family],
+    rule: UnexplainedRule,
+) -> Result<ScenarioResult, EvalError> {
     let family = family_of(seed, families);
     let effect = draw_effect(seed);
     let set = generate(&family, &effect, seed);
@@ -240,7 +259,7 @@ pub fn run_scenario(seed: u64, families: &[Family]) -> Result<ScenarioResult, Ev
     let curve = rig_curve(&set.rig)?;
     // Blind: flights (read from their files, the hall's ceiling in their metadata), the rig
     // curve and the rotors.
-    let o = adapter::diagnose_blind(&train, &heldout, &curve, set.rig.rotor_count)?;
+    let o = adapter::diagnose_blind_with(&train, &heldout, &curve, set.rig.rotor_count, rule)?;
     Ok(score(&set.truth, &family, &o))
 }
 
@@ -350,6 +369,8 @@ pub struct StudyOptions {
     pub families: Vec<Family>,
     /// Worker threads.
     pub threads: usize,
+    /// The rule that sets the diagnosis's `unexplained` flag.
+    pub unexplained_rule: UnexplainedRule,
 }
 
 impl Default for StudyOptions {
@@ -358,6 +379,7 @@ impl Default for StudyOptions {
             seeds: 0..200,
             families: Family::all(),
             threads: 2,
+            unexplained_rule: UnexplainedRule::default(),
         }
     }
 }
@@ -476,7 +498,10 @@ pub fn study(
                     loop {
                         let k = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
                         let Some(&seed) = all.get(k) else { break };
-                        out.push((seed, run_scenario(seed, families)));
+                        out.push((
+                            seed,
+                            run_scenario_with(seed, families, opts.unexplained_rule),
+                        ));
                         let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
                         progress(n);
                     }
@@ -534,6 +559,9 @@ mod tests {
             heldout_endurance_before_pct: Some(before),
             heldout_endurance_after_pct: Some(after),
             heldout_headline: (before, after),
+            unexplained_reasons: Vec::new(),
+            unexplained_by_chi2: unexplained,
+            unexplained_by_systematic: unexplained,
         }
     }
 

@@ -19,7 +19,10 @@
 //!   held-out endurance worse, checks the selection's stability between the early and late
 //!   halves of the flights, and reports the held-out gap before and after with each effect's
 //!   Shapley share. `none` when the gap is within noise; `unexplained` (with the residual
-//!   named) when a significant gap remains that no candidate explains.
+//!   named, and why in words with numbers) when a significant gap remains that no candidate
+//!   explains: by default χ² left against fixed noise floors or an unstable effect; with
+//!   [`diagnose::UnexplainedRule::Systematic`], a residual the flights share beyond their own
+//!   scatter ([`systematic`]).
 //! - [`logs::run`]: the same with a rig baseline or, for a robot nobody characterised, a hover
 //!   power estimated from the training flights.
 //!
@@ -68,6 +71,7 @@ pub mod model;
 pub mod params_link;
 pub mod stats;
 pub mod summary;
+pub mod systematic;
 
 /// What can go wrong in the diagnosis.
 #[derive(Debug, thiserror::Error)]

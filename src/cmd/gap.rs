@@ -50,6 +50,30 @@ pub struct Args {
     /// Most effects combined in the verdict (1 to 8).
     #[arg(long, default_value_t = 2)]
     max_effects: usize,
+    /// The rule that sets `unexplained`: `chi2` (χ² left against fixed noise floors, or an
+    /// effect unstable between the early and late half of the flights) or `systematic` (a
+    /// residual the flights share beyond their own scatter, or a flight's endurance missed by
+    /// more than half). Both are computed and printed; this picks the flag.
+    #[arg(long, value_enum, default_value_t = RuleArg::Chi2)]
+    unexplained_rule: RuleArg,
+}
+
+/// `--unexplained-rule`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum RuleArg {
+    /// χ² left against the fixed noise floors, or an unstable effect.
+    Chi2,
+    /// A residual shared by the flights beyond their own scatter, or a gross miss.
+    Systematic,
+}
+
+impl From<RuleArg> for gap::diagnose::UnexplainedRule {
+    fn from(r: RuleArg) -> Self {
+        match r {
+            RuleArg::Chi2 => Self::Chi2,
+            RuleArg::Systematic => Self::Systematic,
+        }
+    }
 }
 
 /// How a flight's phases were obtained.
@@ -124,6 +148,13 @@ fn read(
 struct Json<'a> {
     verdict: Vec<&'static str>,
     unexplained: bool,
+    unexplained_rule: gap::diagnose::UnexplainedRule,
+    unexplained_reasons: &'a [String],
+    cautions: &'a [String],
+    unexplained_by_chi2: bool,
+    unexplained_by_systematic: bool,
+    systematic: &'a gap::systematic::SystematicCheck,
+    stability: &'a [gap::diagnose::Stability],
     within_noise: bool,
     effects: Vec<serde_json::Value>,
     headline: &'a gap::diagnose::HeadlineGap,
@@ -154,6 +185,51 @@ fn levels(e: &LevelErrors) -> String {
         parts.push(format!("voltage RMSE {v:.3} V"));
     }
     parts.join(", ")
+}
+
+/// Why the gap is (or is not) `unexplained`, by the rule set, and what the other rule says.
+fn print_why(d: &gap::diagnose::Diagnosis) {
+    use gap::diagnose::UnexplainedRule;
+    let (rule, other, other_says) = match d.unexplained_rule {
+        UnexplainedRule::Chi2 => ("chi2", "systematic", d.unexplained_by_systematic),
+        UnexplainedRule::Systematic => ("systematic", "chi2", d.unexplained_by_chi2),
+    };
+    for r in &d.unexplained_reasons {
+        println!("unexplained ({rule} rule): {r}");
+    }
+    if d.within_noise {
+        return;
+    }
+    // The systematic check's own findings, whichever rule is set.
+    let c = &d.systematic;
+    if c.reasons.is_empty() {
+        let strongest = c
+            .patterns
+            .iter()
+            .max_by(|a, b| a.t.abs().total_cmp(&b.t.abs()));
+        println!(
+            "systematic check: no residual shared by the flights beyond their own scatter{}",
+            strongest.map_or(String::new(), |p| format!(
+                " (strongest: {})",
+                p.sentence().replace(" is systematically ", " ")
+            ))
+        );
+    } else if d.unexplained_rule != UnexplainedRule::Systematic || !d.unexplained {
+        for r in &c.reasons {
+            println!("systematic check: {r}");
+        }
+    }
+    for c in &d.cautions {
+        println!("caution: {c}");
+    }
+    println!(
+        "the {other} rule {} (--unexplained-rule {other})",
+        if other_says {
+            "would flag it unexplained"
+        } else {
+            "would not flag it"
+        }
+    );
 }
 
 fn print_where(w: &gap::diagnose::Where) {
@@ -217,6 +293,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     let mut opts = DiagnoseOptions {
         max_effects: args.max_effects,
+        unexplained_rule: args.unexplained_rule.into(),
         ..DiagnoseOptions::default()
     };
     if let Some(p) = &args.battery_ocv_csv {
@@ -350,6 +427,13 @@ pub fn run(args: Args) -> Result<()> {
         return output::print_json(&Json {
             verdict: d.verdict.iter().map(|e| e.name()).collect(),
             unexplained: d.unexplained,
+            unexplained_rule: d.unexplained_rule,
+            unexplained_reasons: &d.unexplained_reasons,
+            cautions: &d.cautions,
+            unexplained_by_chi2: d.unexplained_by_chi2,
+            unexplained_by_systematic: d.unexplained_by_systematic,
+            systematic: &d.systematic,
+            stability: &d.stability,
             within_noise: d.within_noise,
             effects,
             headline: &d.headline,
@@ -442,9 +526,13 @@ pub fn run(args: Args) -> Result<()> {
     let unit = d.headline.level.unit();
     if d.within_noise {
         println!("verdict: none — the gap is within noise");
-    } else if d.verdict.is_empty() {
+    } else if d.verdict.is_empty() && d.unexplained {
         println!(
             "verdict: unexplained — a significant gap remains that no candidate effect explains"
+        );
+    } else if d.verdict.is_empty() {
+        println!(
+            "verdict: none — no library effect is selected, and no residual is shared by the flights beyond their own scatter"
         );
     } else {
         let mut t = Table::new(&["effect", "parameter", "share of gap closed"]);
@@ -476,6 +564,7 @@ pub fn run(args: Args) -> Result<()> {
             );
         }
     }
+    print_why(d);
     for r in &d.rejected {
         println!("dropped {}: {}", r.effect.name(), r.reason);
     }

@@ -30,6 +30,9 @@ pub struct Args {
     /// Print machine-readable JSON (every scenario, every family, the confusion matrix).
     #[arg(long)]
     json: bool,
+    /// The rule that sets the diagnosis's `unexplained` flag (see `hoverbench gap --help`).
+    #[arg(long, value_enum, default_value_t = super::gap::RuleArg::Chi2)]
+    unexplained_rule: super::gap::RuleArg,
 }
 
 fn pct(v: Option<f64>) -> String {
@@ -68,6 +71,7 @@ pub fn run(args: Args) -> Result<()> {
         seeds: args.seed_start..args.seed_start + args.scenarios,
         families,
         threads: args.threads,
+        unexplained_rule: args.unexplained_rule.into(),
     };
     let bar = indicatif::ProgressBar::new(args.scenarios);
     bar.set_style(
