@@ -171,6 +171,11 @@ pub struct ScenarioResult {
 }
 
 impl ScenarioResult {
+    /// Whether no effect was selected (the verdict `none`, flagged or not).
+    pub fn verdict_effects_empty(&self) -> bool {
+        self.verdict == "none" || self.verdict == "none (unexplained)"
+    }
+
     /// How much the held-out endurance error grew, percentage points (≤ 0: not worse).
     pub fn worse_by_pp(&self) -> Option<f64> {
         Some(self.heldout_endurance_after_pct? - self.heldout_endurance_before_pct?)
@@ -263,6 +268,16 @@ pub fn run_scenario_with(
     Ok(score(&set.truth, &family, &o))
 }
 
+/// `none` right and outside flagged under each rule for `unexplained`: ((runs, right), (runs,
+/// flagged)).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct RuleScores {
+    /// Under the χ² rule.
+    pub chi2: ((usize, usize), (usize, usize)),
+    /// Under the systematic rule.
+    pub systematic: ((usize, usize), (usize, usize)),
+}
+
 /// A group of scenarios (a family or a roll-up) and its scores.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct GroupSummary {
@@ -281,6 +296,9 @@ pub struct GroupSummary {
     pub none: (usize, usize),
     /// Outside the library: scenarios, flagged unexplained.
     pub outside: (usize, usize),
+    /// `none` right and outside flagged as each rule for `unexplained` would score them,
+    /// whichever rule the study ran: χ² rule (none, outside), systematic rule (none, outside).
+    pub by_rule: RuleScores,
     /// Runs whose held-out endurance error got worse, and by more than 0.25 pp.
     pub worse: (usize, usize),
     /// Largest growth of the held-out endurance error, pp.
@@ -343,6 +361,20 @@ impl GroupSummary {
             library: count(&lib, &|r| r.strict_correct),
             none: count(&|r| r.truth == "none", &|r| r.strict_correct),
             outside: count(&|r| r.outside_library, &|r| r.strict_correct),
+            by_rule: RuleScores {
+                chi2: (
+                    count(&|r| r.truth == "none", &|r| {
+                        r.verdict_effects_empty() && !r.unexplained_by_chi2
+                    }),
+                    count(&|r| r.outside_library, &|r| r.unexplained_by_chi2),
+                ),
+                systematic: (
+                    count(&|r| r.truth == "none", &|r| {
+                        r.verdict_effects_empty() && !r.unexplained_by_systematic
+                    }),
+                    count(&|r| r.outside_library, &|r| r.unexplained_by_systematic),
+                ),
+            },
             worse: (
                 worse.iter().filter(|w| **w > 1e-9).count(),
                 worse.iter().filter(|w| **w > WORSE_FLAG_PP).count(),
@@ -627,6 +659,29 @@ mod tests {
         assert!((g.median_shrinkage.unwrap() - 0.225).abs() < 1e-12);
         assert_eq!(rep.groups[0].name, "all held-out families");
         assert_eq!(rep.tuning_families.len(), 0);
+    }
+
+    #[test]
+    fn groups_score_none_and_outside_under_both_rules() {
+        let fam = Family::parse("lipo/lab-1hz/paper").unwrap();
+        // The χ² rule flags everything; the systematic rule only the outside effect.
+        let mut none = outcome(&[], true, 1.0, 1.0);
+        none.unexplained_by_systematic = false;
+        let heat = outcome(&[("peukert", 1.0)], true, 3.0, 2.0);
+        let mut drain = outcome(&[], true, 3.0, 3.0);
+        drain.unexplained_by_systematic = false;
+        let rs = vec![
+            score(&truth(EffectKind::None, 1000.0), &fam, &none),
+            score(&truth(EffectKind::MotorHeating, 960.0), &fam, &heat),
+            score(&truth(EffectKind::DrainingPayload, 960.0), &fam, &drain),
+        ];
+        let rep = summarise((0, 3), &[fam], rs, Vec::new());
+        let g = &rep.groups[0];
+        assert_eq!(g.name, "all tuning families");
+        // Scored by the rule the study ran (χ²): none wrong, both outside right.
+        assert_eq!((g.none, g.outside), ((1, 0), (2, 2)));
+        assert_eq!(g.by_rule.chi2, ((1, 0), (2, 2)));
+        assert_eq!(g.by_rule.systematic, ((1, 1), (2, 1)));
     }
 
     #[test]

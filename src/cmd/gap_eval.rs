@@ -133,6 +133,32 @@ pub fn run(args: Args) -> Result<()> {
         t.row(row(g));
     }
     print!("{}", t.render());
+    println!();
+    println!(
+        "`unexplained` by rule (ran with --unexplained-rule {}): none right, outside flagged",
+        match opts.unexplained_rule {
+            gap_eval::UnexplainedRule::Chi2 => "chi2",
+            gap_eval::UnexplainedRule::Systematic => "systematic",
+        }
+    );
+    let mut t = Table::new(&[
+        "group",
+        "chi2: none",
+        "chi2: outside",
+        "systematic: none",
+        "systematic: outside",
+    ]);
+    for g in rep.groups.iter().filter(|g| g.name.starts_with("all ")) {
+        let r = g.by_rule;
+        t.row(vec![
+            g.name.clone(),
+            frac(r.chi2.0),
+            frac(r.chi2.1),
+            frac(r.systematic.0),
+            frac(r.systematic.1),
+        ]);
+    }
+    print!("{}", t.render());
     if !rep.failed.is_empty() {
         println!();
         println!("scenarios that did not run:");
