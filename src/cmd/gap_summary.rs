@@ -67,7 +67,19 @@ pub fn run(args: Args) -> Result<()> {
             samples: count("samples")?,
         });
     }
-    let gaps = explain(&model, &rows)?;
+    // Row by row, so that a mission the model cannot fly (a pack over the thrust limit, a
+    // thrust outside the curve) names its line.
+    let mut gaps = Vec::with_capacity(rows.len());
+    for (r, row) in rows.iter().enumerate() {
+        gaps.extend(explain(&model, std::slice::from_ref(row)).with_context(|| {
+            format!(
+                "{}, line {} ({})",
+                args.file.display(),
+                table.line(r),
+                row.name
+            )
+        })?);
+    }
     if args.json {
         return output::print_json(&gaps);
     }

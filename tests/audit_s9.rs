@@ -1,0 +1,109 @@
+//! Session 9's pass as a new user: mistakes that used to move the rig, print a wrapped seed
+//! range, lose the line of a bad row or pass silently now end with exit 2 and a message naming
+//! the file, line or value.
+
+mod common;
+
+use common::{data, outcome};
+
+/// `hoverbench ARGS` exits with 2; returns (stdout, stderr).
+fn fails(args: &[&str]) -> (String, String) {
+    let (code, out, err) = outcome(args);
+    assert_eq!(code, 2, "{args:?}:\n{out}\n{err}");
+    assert!(!err.contains("panicked"), "{args:?}:\n{err}");
+    (out, err)
+}
+
+#[test]
+fn characterise_refuses_a_session_folder_it_cannot_make_before_the_rig_starts() {
+    let d = tempfile::tempdir().unwrap();
+    let file = d.path().join("params.toml");
+    std::fs::write(&file, "not a folder\n").unwrap();
+    let under_file = file.join("session");
+    for target in [&file, &under_file] {
+        let t = target.to_str().unwrap();
+        let (out, err) = fails(&["characterise", "-o", t]);
+        assert!(
+            err.contains(&format!("cannot use {t} as the session folder")),
+            "{err}"
+        );
+        // Refused before the simulated bench was started: no rig line, no "steps are in".
+        assert!(!out.contains("simulated bench"), "{out}");
+        assert!(!err.contains("complete steps are in"), "{err}");
+    }
+    assert_eq!(
+        std::fs::read_to_string(&file).unwrap(),
+        "not a folder\n",
+        "the file in the way is left as it was"
+    );
+}
+
+#[test]
+fn sweep_refuses_a_log_in_a_missing_folder_before_connecting() {
+    let d = tempfile::tempdir().unwrap();
+    let log = d.path().join("missing").join("sweep.csv");
+    let log = log.to_str().unwrap();
+    // The ports do not exist either: the folder is checked first, so no port is opened.
+    let (_, err) = fails(&[
+        "sweep",
+        "--rig",
+        "/dev/nonexistent-rig",
+        "--supply",
+        "/dev/nonexistent-supply",
+        "-o",
+        log,
+    ]);
+    assert!(err.contains(&format!("cannot write {log}")), "{err}");
+    assert!(err.contains("does not exist"), "{err}");
+    assert!(!err.contains("nonexistent-rig"), "{err}");
+}
+
+#[test]
+fn studies_refuse_zero_scenarios_zero_threads_and_seeds_past_the_last() {
+    for args in [
+        vec!["rig-gap-eval", "--scenarios", "0"],
+        vec!["gap-eval", "--scenarios", "0"],
+        vec!["replay-eval", "--scenarios", "0"],
+        vec!["gap-eval", "--threads", "0", "--scenarios", "1"],
+        vec!["replay-eval", "--threads", "0", "--scenarios", "1"],
+    ] {
+        let (_, err) = fails(&args);
+        assert!(err.contains("\"0\" must be at least 1"), "{args:?}:\n{err}");
+    }
+    // rig-gap-eval --scenarios 0 used to print "seeds 0–18446744073709551615".
+    let last = u64::MAX.to_string();
+    for args in [
+        vec!["rig-gap-eval", "--seed", &last, "--scenarios", "2"],
+        vec!["gap-eval", "--seed-start", &last, "--scenarios", "2"],
+        vec!["replay-eval", "--seed", &last, "--scenarios", "2"],
+    ] {
+        let (out, err) = fails(&args);
+        assert!(
+            err.contains("run past the largest seed"),
+            "{args:?}:\n{err}"
+        );
+        assert!(out.is_empty(), "{args:?}:\n{out}");
+    }
+}
+
+#[test]
+fn gap_summary_names_the_line_of_a_mission_the_model_cannot_fly() {
+    let d = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(data("table-i.csv")).unwrap();
+    let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
+    // A second mission with a 5 kg pack: far beyond the curve's thrust range.
+    let heavy = lines[1]
+        .replace("Table I (Battery-A)", "too heavy")
+        .replace(",0.144,", ",5,");
+    assert_ne!(heavy, lines[1]);
+    lines.push(heavy);
+    let file = d.path().join("missions.csv");
+    std::fs::write(&file, lines.join("\n") + "\n").unwrap();
+    let f = file.to_str().unwrap();
+    let (_, err) = fails(&["gap-summary", f, "--paper"]);
+    assert!(
+        err.contains(&format!("error: {f}, line 3 (too heavy)")),
+        "{err}"
+    );
+    assert!(err.contains("outside the measured thrust curve"), "{err}");
+}
