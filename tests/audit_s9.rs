@@ -107,3 +107,85 @@ fn gap_summary_names_the_line_of_a_mission_the_model_cannot_fly() {
     );
     assert!(err.contains("outside the measured thrust curve"), "{err}");
 }
+
+#[test]
+fn a_params_file_names_the_key_it_lacks_or_cannot_use() {
+    let d = tempfile::tempdir().unwrap();
+    let params = d.path().join("params.toml");
+    let p = params.to_str().unwrap();
+    common::ok(&["fit", &data("paper-sweep.csv"), "-o", p]);
+    let text = std::fs::read_to_string(&params).unwrap();
+    let estimate = [
+        "estimate",
+        "--params",
+        p,
+        "--structure-mass",
+        "431g",
+        "--avionics-power",
+        "2.44",
+        "--battery-mass",
+        "144g",
+        "--energy-density",
+        "164",
+    ];
+    // A section left out: said in the file's words, not serde's "missing field".
+    let start = text.find("[fit]").unwrap();
+    let end = text.find("[provenance]").unwrap();
+    std::fs::write(&params, format!("{}{}", &text[..start], &text[end..])).unwrap();
+    let (_, err) = fails(&estimate);
+    assert!(
+        err.contains("`fit` is missing: every hoverbench parameter file has it"),
+        "{err}"
+    );
+    assert!(!err.contains("missing field"), "{err}");
+    // A value the curve cannot use: its key and line, as the file names it (`scale`, not the
+    // estimator's `scale_g`).
+    let line = text.lines().position(|l| l.starts_with("scale =")).unwrap() + 1;
+    std::fs::write(
+        &params,
+        text.replace("\nscale = 130.0\n", "\nscale = 0.0\n"),
+    )
+    .unwrap();
+    let (_, err) = fails(&estimate);
+    assert!(
+        err.contains(&format!(
+            "line {line}, column 9, curve.scale: values the estimator cannot use"
+        )),
+        "{err}"
+    );
+}
+
+#[test]
+fn fit_says_a_tare_offset_once_and_a_descent_in_four_digits() {
+    let d = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(data("paper-sweep.csv")).unwrap();
+    // The first step reads −20 g instead of its thrust.
+    let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
+    let header = lines.iter().position(|l| !l.starts_with('#')).unwrap();
+    let cols: Vec<&str> = lines[header].split(',').collect();
+    let thrust = cols.iter().position(|c| *c == "thrust_g").unwrap();
+    let mut cells: Vec<String> = lines[header + 1].split(',').map(str::to_owned).collect();
+    cells[thrust] = "-20".to_owned();
+    lines[header + 1] = cells.join(",");
+    let file = d.path().join("sweep.csv");
+    std::fs::write(&file, lines.join("\n") + "\n").unwrap();
+    let (code, _, err) = outcome(&["fit", file.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(err.matches("tare offset at idle").count(), 1, "{err}");
+    if let Some(w) = err.lines().find(|l| l.contains("steepest descent")) {
+        // no 17-digit floats
+        assert!(
+            w.split(|c: char| !(c.is_ascii_digit() || c == '.'))
+                .all(|n| n.len() < 10),
+            "{w}"
+        );
+    }
+}
+
+#[test]
+fn help_says_what_the_summaries_file_holds_and_the_clock_rate_unit() {
+    let help = common::ok(&["gap-summary", "--help"]);
+    assert!(help.contains("measured_mean_min"), "{help}");
+    let help = common::ok(&["characterise", "--help"]);
+    assert!(help.contains("× real time"), "{help}");
+}

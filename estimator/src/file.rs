@@ -437,10 +437,13 @@ pub enum ParamsFileError {
         found: i64,
     },
     /// Values that parse but make no sense.
-    #[error("{}values the estimator cannot use", path_prefix(path.as_deref()))]
+    #[error("{}{}values the estimator cannot use", path_prefix(path.as_deref()), key_prefix(at.as_ref()))]
     Invalid {
         /// The file.
         path: Option<PathBuf>,
+        /// Where in the file, when parsed from text: 1-based line and column of the value and
+        /// its key (`curve.scale`).
+        at: Option<(usize, usize, String)>,
         /// What is wrong.
         source: EstimateError,
     },
@@ -475,6 +478,36 @@ pub enum ParamsFileError {
         /// Coefficients given.
         len: usize,
     },
+}
+
+fn key_prefix(at: Option<&(usize, usize, String)>) -> String {
+    at.map(|(line, column, key)| format!("line {line}, column {column}, {key}: "))
+        .unwrap_or_default()
+}
+
+/// The file key (`section`, `key`) a curve check names: the check speaks of the estimator's
+/// fields (`curve scale_g`), the file of its keys (`[curve] scale`).
+fn curve_error_key(e: &EstimateError) -> (&'static str, &'static str) {
+    let what = match e {
+        EstimateError::NonFinite { what, .. }
+        | EstimateError::NotPositive { what, .. }
+        | EstimateError::Negative { what, .. } => *what,
+        EstimateError::NoRotors => return ("", "rotor_count"),
+        EstimateError::CurveDegree { .. } => return ("curve", "degree"),
+        EstimateError::CurveRange { min_g, .. } if *min_g < 0.0 => return ("curve", "valid_min"),
+        EstimateError::CurveRange { .. } => return ("curve", "valid_max"),
+        _ => "",
+    };
+    let key = match what {
+        "curve coefficient" => "coefficients_scaled",
+        "curve center_g" => "center",
+        "curve scale_g" => "scale",
+        "curve valid_min_g" => "valid_min",
+        "curve valid_max_g" => "valid_max",
+        "curve supply_voltage_v" => "supply_voltage_v",
+        _ => "",
+    };
+    ("curve", key)
 }
 
 fn path_prefix(path: Option<&Path>) -> String {
@@ -544,11 +577,22 @@ impl ParamsFile {
     fn parse(text: &str, path: Option<&Path>) -> Result<Self, ParamsFileError> {
         let syntax = |e: toml::de::Error| {
             let (line, column) = e.span().map_or((1, 1), |s| line_column(text, s.start));
+            let message = e.message().trim();
+            // serde's "missing field `curve`": a key or a whole [section] of the file
+            let message = match message
+                .strip_prefix("missing field `")
+                .and_then(|m| m.strip_suffix('`'))
+            {
+                Some(name) => {
+                    format!("`{name}` is missing: every hoverbench parameter file has it")
+                }
+                None => message.to_owned(),
+            };
             ParamsFileError::Syntax {
                 path: path.map(Path::to_owned),
                 line,
                 column,
-                message: e.message().trim().to_owned(),
+                message,
             }
         };
         // Check the schema and version before the strict parse, so that a file from a newer
@@ -600,11 +644,20 @@ impl ParamsFile {
                 len: file.curve.coefficients_scaled.len(),
             });
         }
-        file.curve_checked()
-            .map_err(|source| ParamsFileError::Invalid {
+        file.curve_checked().map_err(|source| {
+            let (section, key) = curve_error_key(&source);
+            let (line, column) = key_position(text, section, key);
+            let name = match (section, key) {
+                (s, "") => format!("[{s}]"),
+                ("", k) => k.to_owned(),
+                (s, k) => format!("{s}.{k}"),
+            };
+            ParamsFileError::Invalid {
                 path: path.map(Path::to_owned),
+                at: Some((line, column, name)),
                 source,
-            })?;
+            }
+        })?;
         file.check_values(text, path)?;
         Ok(file)
     }
@@ -730,7 +783,11 @@ impl ParamsFile {
                 y: self.curve.y.clone(),
             });
         }
-        let invalid = |source| ParamsFileError::Invalid { path: None, source };
+        let invalid = |source| ParamsFileError::Invalid {
+            path: None,
+            at: None,
+            source,
+        };
         let curve = self.curve_checked().map_err(invalid)?;
         let thrust_limit = match &self.thrust_limit {
             None => None,

@@ -55,7 +55,8 @@ pub struct Args {
     /// Continue an interrupted session in the folder.
     #[arg(long)]
     resume: bool,
-    /// The rig's clock rate [default: 1 with ports, 10 simulated].
+    /// The rig's clock rate, × real time (10: ten times faster) [default: 1 with ports, 10
+    /// simulated].
     #[arg(long, value_name = "N")]
     speed: Option<f64>,
     /// Sample stream rate, Hz.

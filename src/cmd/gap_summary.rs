@@ -14,7 +14,8 @@ use crate::output::{self, ModelArgs, Table};
 /// eq. (8) accounts for.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The summaries.
+    /// The mission summaries CSV: name, plan, battery_mass_kg, energy_density_wh_per_kg,
+    /// payload_mass_kg, payload_power_w, measured_mean_min, measured_std_min, samples.
     file: PathBuf,
     #[command(flatten)]
     model: ModelArgs,

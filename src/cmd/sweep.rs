@@ -64,7 +64,7 @@ pub struct Args {
     /// Continue an interrupted sweep from its last complete step.
     #[arg(long)]
     resume: bool,
-    /// The rig's clock rate (a simulated rig's --speed; 1 for hardware).
+    /// The rig's clock rate, × real time (a simulated rig's --speed; 1 for hardware).
     #[arg(long, default_value_t = 1.0, value_name = "N")]
     speed: f64,
     /// Sample stream rate, Hz.
