@@ -189,3 +189,11 @@ fn help_says_what_the_summaries_file_holds_and_the_clock_rate_unit() {
     let help = common::ok(&["characterise", "--help"]);
     assert!(help.contains("× real time"), "{help}");
 }
+
+#[test]
+fn gap_summary_says_its_spread_is_the_standard_error() {
+    // Table I: 102.3 ± 0.2 min (standard deviation) over 2 flights, a standard error of 0.14.
+    let out = common::ok(&["gap-summary", &data("table-i.csv"), "--paper"]);
+    assert!(out.contains("measured (± s.e.)"), "{out}");
+    assert!(out.contains("102.3 ± 0.14 min"), "{out}");
+}

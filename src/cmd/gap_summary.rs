@@ -90,7 +90,7 @@ pub fn run(args: Args) -> Result<()> {
         "mission",
         "printed eq. (8)",
         "consistent eq. (8)",
-        "measured",
+        "measured (± s.e.)",
         "eq. (8) accounts for",
     ]);
     for g in &gaps {
