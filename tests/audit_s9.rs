@@ -197,3 +197,113 @@ fn gap_summary_says_its_spread_is_the_standard_error() {
     assert!(out.contains("measured (± s.e.)"), "{out}");
     assert!(out.contains("102.3 ± 0.14 min"), "{out}");
 }
+
+#[test]
+fn export_never_writes_over_its_own_input() {
+    let d = tempfile::tempdir().unwrap();
+    let params = d.path().join("params.toml");
+    let p = params.to_str().unwrap();
+    common::ok(&["fit", &data("paper-sweep.csv"), "-o", p]);
+    let before = std::fs::read(&params).unwrap();
+    let sweep = d.path().join("sweep.csv");
+    std::fs::copy(data("paper-sweep.csv"), &sweep).unwrap();
+    let s = sweep.to_str().unwrap();
+    let sweep_before = std::fs::read(&sweep).unwrap();
+    // `export c-header params.toml -o params.toml` used to replace the parameters with C.
+    for args in [
+        vec!["export", "c-header", p, "-o", p],
+        vec!["export", "px4", "--sweep", s, "-o", s],
+        vec!["export", "ardupilot", "--sweep", s, "-o", s],
+    ] {
+        let (_, err) = fails(&args);
+        assert!(err.contains("is also an input"), "{args:?}:\n{err}");
+    }
+    assert_eq!(std::fs::read(&params).unwrap(), before);
+    assert_eq!(std::fs::read(&sweep).unwrap(), sweep_before);
+}
+
+#[test]
+fn a_sweep_given_for_the_parameters_is_named_as_such() {
+    let sweep = data("paper-sweep.csv");
+    for args in [
+        vec!["report", &sweep, "-o", "never-written"],
+        vec!["export", "c-header", &sweep],
+    ] {
+        let (_, err) = fails(&args);
+        assert!(
+            err.contains("a table of comma-separated values, not a TOML parameter file"),
+            "{args:?}:\n{err}"
+        );
+        assert!(err.contains("hoverbench fit"), "{err}");
+    }
+    assert!(!std::path::Path::new("never-written").exists());
+}
+
+#[test]
+fn a_folder_of_log_folders_says_its_subfolders_are_not_searched() {
+    let d = tempfile::tempdir().unwrap();
+    std::fs::create_dir(d.path().join("ulog")).unwrap();
+    std::fs::create_dir(d.path().join("dataflash")).unwrap();
+    let (_, err) = fails(&["flights", d.path().to_str().unwrap()]);
+    assert!(
+        err.contains("subfolders are not searched: give them (dataflash/, ulog/)"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_supply_that_cannot_be_opened_is_named_with_its_port() {
+    use std::io::BufRead;
+    let d = tempfile::tempdir().unwrap();
+    let mut rig = common::bin()
+        .args(["sim-rig", "--json", "--speed", "10"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut first = String::new();
+    std::io::BufReader::new(rig.stdout.take().unwrap())
+        .read_line(&mut first)
+        .unwrap();
+    let port: serde_json::Value = serde_json::from_str(&first).unwrap();
+    let port = port["port"].as_str().unwrap().to_owned();
+    let log = d.path().join("sweep.csv");
+    let out = outcome(&[
+        "sweep",
+        "--rig",
+        &port,
+        "--supply",
+        "/dev/nonexistent-supply",
+        "-o",
+        log.to_str().unwrap(),
+    ]);
+    let _ = rig.kill();
+    let _ = rig.wait();
+    let (code, _, err) = out;
+    assert_eq!(code, 2, "{err}");
+    assert!(
+        err.contains("error: connecting to the scpi supply on /dev/nonexistent-supply"),
+        "{err}"
+    );
+    // was "caused by: bench supply open"
+    assert!(err.contains("the bench supply failed to open"), "{err}");
+}
+
+#[test]
+fn a_fractional_throttle_just_past_one_is_not_read_as_percent() {
+    // paper-sweep.csv's throttle runs 0.100 … 1.010: read as a percentage, ArduPilot found no
+    // command above MOT_SPIN_MIN ("0 usable sweep points") and PX4 fitted commands of 0.001 ….
+    let out = common::ok(&["export", "ardupilot", "--sweep", &data("paper-sweep.csv")]);
+    assert!(out.contains("MOT_THST_EXPO,"), "{out}");
+    let px4 = common::ok(&["export", "px4", "--sweep", &data("paper-sweep.csv")]);
+    let fac: f64 = px4
+        .lines()
+        .find_map(|l| {
+            l.split('\t')
+                .collect::<Vec<_>>()
+                .get(2..4)
+                .and_then(|f| (f[0] == "THR_MDL_FAC").then(|| f[1].parse().ok()).flatten())
+        })
+        .unwrap_or_else(|| panic!("{px4}"));
+    assert!((0.0..=1.0).contains(&fac), "{px4}");
+}

@@ -552,6 +552,17 @@ fn key_position(text: &str, section: &str, key: &str) -> (usize, usize) {
     section_line
 }
 
+/// The 1-based line of a CSV header, when the first line that is neither blank nor a `#`
+/// comment holds commas and no `=` (a sweep or catalogue, not TOML).
+fn csv_header_line(text: &str) -> Option<usize> {
+    let (i, first) = text
+        .lines()
+        .enumerate()
+        .find(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'))?;
+    (first.contains(',') && !first.contains('=') && !first.trim_start().starts_with('['))
+        .then_some(i + 1)
+}
+
 fn line_column(text: &str, offset: usize) -> (usize, usize) {
     let before = &text[..offset.min(text.len())];
     let line = before.matches('\n').count() + 1;
@@ -597,7 +608,20 @@ impl ParamsFile {
         };
         // Check the schema and version before the strict parse, so that a file from a newer
         // hoverbench says so instead of complaining about the keys it added.
-        let table: toml::Table = toml::from_str(text).map_err(syntax)?;
+        let table: toml::Table = toml::from_str(text).map_err(|e| {
+            // A sweep given where the parameters go: say so, not "expected `=`".
+            match csv_header_line(text) {
+                Some(line) => ParamsFileError::Syntax {
+                    path: path.map(Path::to_owned),
+                    line,
+                    column: 1,
+                    message: "this is a table of comma-separated values, not a TOML parameter \
+                              file: fit the sweep first (hoverbench fit SWEEP -o params.toml)"
+                        .to_owned(),
+                },
+                None => syntax(e),
+            }
+        })?;
         let found = table
             .get("schema")
             .and_then(|v| v.as_str())

@@ -100,7 +100,7 @@ pub enum HostError {
         limit: Option<f32>,
     },
     /// The bench supply failed.
-    #[error("bench supply {during}")]
+    #[error("the bench supply failed {during}")]
     Supply {
         /// What the host was doing.
         during: &'static str,
