@@ -307,3 +307,19 @@ fn a_fractional_throttle_just_past_one_is_not_read_as_percent() {
         .unwrap_or_else(|| panic!("{px4}"));
     assert!((0.0..=1.0).contains(&fac), "{px4}");
 }
+
+#[test]
+fn optimise_refuses_an_energy_density_beside_a_catalogue() {
+    // The catalogue's packs carry their own energy; --energy-density was silently ignored.
+    let (_, err) = fails(&[
+        "optimise",
+        "--paper",
+        "--energy-density",
+        "164",
+        "--catalogue",
+        &common::root()
+            .join("data/batteries/paper.csv")
+            .to_string_lossy(),
+    ]);
+    assert!(err.contains("cannot be used with"), "{err}");
+}
