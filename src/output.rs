@@ -238,6 +238,31 @@ impl StandArgs {
     }
 }
 
+/// A whole number ≥ 1 (`--scenarios`, `--threads`).
+pub fn at_least_one(s: &str) -> Result<u64, String> {
+    match s.trim().parse::<u64>() {
+        Ok(n) if n >= 1 => Ok(n),
+        Ok(_) => Err(format!("{s:?} must be at least 1")),
+        Err(_) => Err(format!("{s:?} is not a whole number ≥ 1")),
+    }
+}
+
+/// [`at_least_one`] as a `usize`.
+pub fn at_least_one_usize(s: &str) -> Result<usize, String> {
+    at_least_one(s).and_then(|n| usize::try_from(n).map_err(|_| format!("{s:?} is too large")))
+}
+
+/// One past the last seed of a study of `scenarios` seeds from `first` (`--seed`,
+/// `--scenarios`), refused when it would pass the largest seed.
+pub fn seed_end(first: u64, scenarios: u64) -> Result<u64> {
+    first.checked_add(scenarios).ok_or_else(|| {
+        anyhow::anyhow!(
+            "seeds {first} + {scenarios} scenarios run past the largest seed ({}): start lower",
+            u64::MAX
+        )
+    })
+}
+
 /// Prints a value as pretty JSON on stdout.
 pub fn print_json(value: &impl serde::Serialize) -> Result<()> {
     println!("{}", serde_json::to_string_pretty(value)?);

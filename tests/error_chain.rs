@@ -117,7 +117,9 @@ fn each_reason_is_printed_once() {
     replace_line(&params, "rotor_count", "rotor_count = 0");
     let err = run(estimate("params.toml"), 1);
     assert!(
-        err.contains("params.toml: values the estimator cannot use"),
+        err.contains(
+            "params.toml: line 6, column 15, rotor_count: values the estimator cannot use"
+        ),
         "{err}"
     );
     assert!(

@@ -102,12 +102,16 @@ pub enum Command {
     Percent,
 }
 
+/// The largest command [`Command::guess`] still reads as a fraction of full scale.
+const FRACTION_MAX: f64 = 1.5;
+
 impl Command {
-    /// Guesses the unit from the largest command in a sweep: ≤ 1 a fraction, ≤ 100 a percentage,
-    /// else microseconds between 1000 and 2000.
+    /// Guesses the unit from the largest command in a sweep: ≤ 1.5 a fraction (a command a little
+    /// past full scale, 1.01, is still a fraction: no sweep tops out at 1.5 % throttle), ≤ 100 a
+    /// percentage, else microseconds between 1000 and 2000.
     pub fn guess(throttle: &[f64]) -> Self {
         let max = throttle.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-        if max <= 1.0 {
+        if max <= FRACTION_MAX {
             Self::Fraction
         } else if max <= 100.0 {
             Self::Percent
@@ -717,6 +721,20 @@ pub fn c_header(params: &estimator::Params, blob: &[u8], guard: &str) -> String 
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn a_fraction_a_little_past_full_scale_is_still_a_fraction() {
+        // tests/data/paper-sweep.csv tops out at 1.010; read as a percentage, every command
+        // was a hundredth of itself and the exponent fit came out wrong or failed.
+        assert_eq!(Command::guess(&[0.1, 0.5, 1.01]), Command::Fraction);
+        assert_eq!(Command::guess(&[0.1, 0.5, 1.0]), Command::Fraction);
+        assert_eq!(Command::guess(&[10.0, 50.0, 100.0]), Command::Percent);
+        assert_eq!(Command::guess(&[5.0, 40.0]), Command::Percent);
+        assert!(matches!(
+            Command::guess(&[1100.0, 1900.0]),
+            Command::Microseconds { .. }
+        ));
+    }
 
     #[test]
     fn ardupilot_inverse_matches_forward_model() {

@@ -437,10 +437,13 @@ pub enum ParamsFileError {
         found: i64,
     },
     /// Values that parse but make no sense.
-    #[error("{}values the estimator cannot use", path_prefix(path.as_deref()))]
+    #[error("{}{}values the estimator cannot use", path_prefix(path.as_deref()), key_prefix(at.as_ref()))]
     Invalid {
         /// The file.
         path: Option<PathBuf>,
+        /// Where in the file, when parsed from text: 1-based line and column of the value and
+        /// its key (`curve.scale`).
+        at: Option<(usize, usize, String)>,
         /// What is wrong.
         source: EstimateError,
     },
@@ -475,6 +478,36 @@ pub enum ParamsFileError {
         /// Coefficients given.
         len: usize,
     },
+}
+
+fn key_prefix(at: Option<&(usize, usize, String)>) -> String {
+    at.map(|(line, column, key)| format!("line {line}, column {column}, {key}: "))
+        .unwrap_or_default()
+}
+
+/// The file key (`section`, `key`) a curve check names: the check speaks of the estimator's
+/// fields (`curve scale_g`), the file of its keys (`[curve] scale`).
+fn curve_error_key(e: &EstimateError) -> (&'static str, &'static str) {
+    let what = match e {
+        EstimateError::NonFinite { what, .. }
+        | EstimateError::NotPositive { what, .. }
+        | EstimateError::Negative { what, .. } => *what,
+        EstimateError::NoRotors => return ("", "rotor_count"),
+        EstimateError::CurveDegree { .. } => return ("curve", "degree"),
+        EstimateError::CurveRange { min_g, .. } if *min_g < 0.0 => return ("curve", "valid_min"),
+        EstimateError::CurveRange { .. } => return ("curve", "valid_max"),
+        _ => "",
+    };
+    let key = match what {
+        "curve coefficient" => "coefficients_scaled",
+        "curve center_g" => "center",
+        "curve scale_g" => "scale",
+        "curve valid_min_g" => "valid_min",
+        "curve valid_max_g" => "valid_max",
+        "curve supply_voltage_v" => "supply_voltage_v",
+        _ => "",
+    };
+    ("curve", key)
 }
 
 fn path_prefix(path: Option<&Path>) -> String {
@@ -519,6 +552,17 @@ fn key_position(text: &str, section: &str, key: &str) -> (usize, usize) {
     section_line
 }
 
+/// The 1-based line of a CSV header, when the first line that is neither blank nor a `#`
+/// comment holds commas and no `=` (a sweep or catalogue, not TOML).
+fn csv_header_line(text: &str) -> Option<usize> {
+    let (i, first) = text
+        .lines()
+        .enumerate()
+        .find(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'))?;
+    (first.contains(',') && !first.contains('=') && !first.trim_start().starts_with('['))
+        .then_some(i + 1)
+}
+
 fn line_column(text: &str, offset: usize) -> (usize, usize) {
     let before = &text[..offset.min(text.len())];
     let line = before.matches('\n').count() + 1;
@@ -544,16 +588,40 @@ impl ParamsFile {
     fn parse(text: &str, path: Option<&Path>) -> Result<Self, ParamsFileError> {
         let syntax = |e: toml::de::Error| {
             let (line, column) = e.span().map_or((1, 1), |s| line_column(text, s.start));
+            let message = e.message().trim();
+            // serde's "missing field `curve`": a key or a whole [section] of the file
+            let message = match message
+                .strip_prefix("missing field `")
+                .and_then(|m| m.strip_suffix('`'))
+            {
+                Some(name) => {
+                    format!("`{name}` is missing: every hoverbench parameter file has it")
+                }
+                None => message.to_owned(),
+            };
             ParamsFileError::Syntax {
                 path: path.map(Path::to_owned),
                 line,
                 column,
-                message: e.message().trim().to_owned(),
+                message,
             }
         };
         // Check the schema and version before the strict parse, so that a file from a newer
         // hoverbench says so instead of complaining about the keys it added.
-        let table: toml::Table = toml::from_str(text).map_err(syntax)?;
+        let table: toml::Table = toml::from_str(text).map_err(|e| {
+            // A sweep given where the parameters go: say so, not "expected `=`".
+            match csv_header_line(text) {
+                Some(line) => ParamsFileError::Syntax {
+                    path: path.map(Path::to_owned),
+                    line,
+                    column: 1,
+                    message: "this is a table of comma-separated values, not a TOML parameter \
+                              file: fit the sweep first (hoverbench fit SWEEP -o params.toml)"
+                        .to_owned(),
+                },
+                None => syntax(e),
+            }
+        })?;
         let found = table
             .get("schema")
             .and_then(|v| v.as_str())
@@ -600,11 +668,20 @@ impl ParamsFile {
                 len: file.curve.coefficients_scaled.len(),
             });
         }
-        file.curve_checked()
-            .map_err(|source| ParamsFileError::Invalid {
+        file.curve_checked().map_err(|source| {
+            let (section, key) = curve_error_key(&source);
+            let (line, column) = key_position(text, section, key);
+            let name = match (section, key) {
+                (s, "") => format!("[{s}]"),
+                ("", k) => k.to_owned(),
+                (s, k) => format!("{s}.{k}"),
+            };
+            ParamsFileError::Invalid {
                 path: path.map(Path::to_owned),
+                at: Some((line, column, name)),
                 source,
-            })?;
+            }
+        })?;
         file.check_values(text, path)?;
         Ok(file)
     }
@@ -730,7 +807,11 @@ impl ParamsFile {
                 y: self.curve.y.clone(),
             });
         }
-        let invalid = |source| ParamsFileError::Invalid { path: None, source };
+        let invalid = |source| ParamsFileError::Invalid {
+            path: None,
+            at: None,
+            source,
+        };
         let curve = self.curve_checked().map_err(invalid)?;
         let thrust_limit = match &self.thrust_limit {
             None => None,

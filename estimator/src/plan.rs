@@ -10,8 +10,9 @@
 //!          | "hover" "until" "empty"
 //! ```
 //!
-//! `attached` and `perch` are accepted for `attach`; a duration without a unit is an error, so
-//! that `hover 2` cannot be read as seconds by one user and minutes by another.
+//! `fly` is accepted for `hover`, `attached` and `perch` for `attach`; a duration without a
+//! unit is an error, so that `hover 2` cannot be read as seconds by one user and minutes by
+//! another.
 
 use crate::mission::Segment;
 

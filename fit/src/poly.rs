@@ -130,6 +130,15 @@ pub enum FitWarning {
     StreamingChecksSkipped,
 }
 
+/// `v` to about four significant digits, for messages (`-0.2742`, not `-0.27415419267069424`).
+fn four_digits(v: f64) -> String {
+    if v == 0.0 || !v.is_finite() {
+        return format!("{v}");
+    }
+    let decimals = (3.0 - v.abs().log10().floor()).clamp(0.0, 15.0) as usize;
+    format!("{v:.decimals$}")
+}
+
 impl fmt::Display for FitWarning {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
@@ -139,8 +148,11 @@ impl fmt::Display for FitWarning {
                 min_derivative_x,
             } => write!(
                 f,
-                "fitted curve is not monotone increasing: it first decreases at x = {first_decrease_x}; \
-                 steepest descent {min_derivative} at x = {min_derivative_x}"
+                "fitted curve is not monotone increasing: it first decreases at x = {}; \
+                 steepest descent {} at x = {}",
+                four_digits(*first_decrease_x),
+                four_digits(*min_derivative),
+                four_digits(*min_derivative_x)
             ),
             FitWarning::FewPoints {
                 n_points,

@@ -147,11 +147,29 @@ pub enum FlightLogError {
         message: String,
     },
     /// A folder with nothing to read.
-    #[error("{}: no flight logs (*.csv, *.ulg, *.bin, or a Crazyflie Real_path/ folder)", path.display())]
+    #[error(
+        "{}: no flight logs (*.csv, *.ulg, *.bin, or a Crazyflie Real_path/ folder){}",
+        path.display(),
+        subfolder_hint(subfolders)
+    )]
     NoFlights {
         /// The folder.
         path: PathBuf,
+        /// Its subfolders, which are not searched (sorted; empty when it has none).
+        subfolders: Vec<String>,
     },
+}
+
+/// `; subfolders are not searched: give them (a/, b/)`, or nothing.
+fn subfolder_hint(subfolders: &[String]) -> String {
+    if subfolders.is_empty() {
+        return String::new();
+    }
+    let names: Vec<String> = subfolders.iter().map(|s| format!("{s}/")).collect();
+    format!(
+        "; subfolders are not searched: give them ({})",
+        names.join(", ")
+    )
 }
 
 impl FlightLogError {
@@ -186,7 +204,7 @@ impl FlightLogError {
             | Self::MissingData { path, .. }
             | Self::UnknownFormat { path, .. }
             | Self::NoUsableBattery { path, .. }
-            | Self::NoFlights { path } => path,
+            | Self::NoFlights { path, .. } => path,
         }
     }
 }

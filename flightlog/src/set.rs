@@ -150,8 +150,20 @@ impl FlightSet {
             }
         }
         if set.flights.is_empty() && set.skipped.is_empty() {
+            let mut subfolders: Vec<String> = std::fs::read_dir(dir)
+                .map(|entries| {
+                    entries
+                        .filter_map(Result::ok)
+                        .filter(|e| e.path().is_dir())
+                        .map(|e| e.file_name().to_string_lossy().into_owned())
+                        .filter(|n| !n.starts_with('.'))
+                        .collect()
+                })
+                .unwrap_or_default();
+            subfolders.sort();
             return Err(FlightLogError::NoFlights {
                 path: dir.to_owned(),
+                subfolders,
             });
         }
         Ok(set)

@@ -377,6 +377,22 @@ impl Table {
                 "column {thrust_col:?} names no unit: read as grams (g). If it holds newtons or kilograms, put the unit in the header, e.g. \"{thrust_col} (N)\""
             ));
         }
+        // Milliamps, millivolts and milliwatts are common in logs: a bare name is read in the
+        // base unit, and said so (a current in mA read as A would make the power 1000× off).
+        for (col, unit, example) in [
+            (&map.voltage, "volts (V)", "(mV)"),
+            (&map.current, "amperes (A)", "(mA)"),
+            (&map.power, "watts (W)", "(mW)"),
+        ] {
+            if let Some(c) = col.as_deref() {
+                let logged = rows.iter().any(|&r| !self.cell_text(r, c).is_empty());
+                if logged && split_unit(c).1.is_none() {
+                    notes.push(format!(
+                        "column {c:?} names no unit: read as {unit}. If it holds another, put the unit in the header, e.g. \"{c} {example}\""
+                    ));
+                }
+            }
+        }
         notes.extend(self.label_columns(map, filters, &rows));
         let mut thrust_g = self.converted(thrust_col, Quantity::Thrust, &rows)?;
         let voltage_v = opt(&map.voltage, Quantity::Voltage)?;
@@ -783,6 +799,30 @@ mod tests {
         let t = Table::parse(b"thrust_g,power_w\n1,2\n", "t").unwrap();
         let (map, _) = ColumnMap::detect(&t);
         assert!(t.measurements(&map, &[]).unwrap().notes.is_empty());
+    }
+
+    #[test]
+    fn a_current_or_power_column_without_a_unit_is_said_to_be_read_in_the_base_unit() {
+        let t = Table::parse(b"thrust_g,voltage_v,current\n1,12,2\n3,12,4\n", "t").unwrap();
+        let (map, _) = ColumnMap::detect(&t);
+        let m = t.measurements(&map, &[]).unwrap();
+        assert_eq!(m.notes.len(), 1, "{:?}", m.notes);
+        assert!(
+            m.notes[0].contains("\"current\" names no unit: read as amperes (A)")
+                && m.notes[0].contains("\"current (mA)\""),
+            "{:?}",
+            m.notes
+        );
+        let t = Table::parse(b"thrust_g,power\n1,2\n3,4\n", "t").unwrap();
+        let (map, _) = ColumnMap::detect(&t);
+        let m = t.measurements(&map, &[]).unwrap();
+        assert!(
+            m.notes
+                .iter()
+                .any(|n| n.contains("\"power\" names no unit: read as watts (W)")),
+            "{:?}",
+            m.notes
+        );
     }
 
     #[test]

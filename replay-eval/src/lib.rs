@@ -190,8 +190,10 @@ pub fn label_cell_v(c: Chemistry) -> f64 {
 }
 
 /// The chemistry printed on a pack's label, as the gap diagnosis names its priors: what a user
-/// passes to `hoverbench battery learn --chemistry`. `None` for LiFePO₄, which the diagnosis has
-/// no prior for (it then picks the best-fitting prior itself).
+/// passes to `hoverbench battery learn --chemistry`. `None` for LiFePO₄, as when the diagnosis had
+/// no prior for it: it now has one (`gap::battery::Chemistry::Lifepo4`), which its pick by the
+/// flights' voltage level chooses for these packs; passing it explicitly would change the
+/// study's reported numbers, so it is not.
 pub fn label_chemistry(c: Chemistry) -> Option<gap::battery::Chemistry> {
     match c {
         Chemistry::LiPo => Some(gap::battery::Chemistry::Lipo),

@@ -55,7 +55,7 @@ pub const MAX_CURRENT_LIMIT_A: f64 = 30.0;
 
 /// Opens a supply driver on a serial port.
 pub fn open_supply(path: &str, dialect: Dialect) -> Result<Box<dyn Supply + Send>, HostError> {
-    let during = "open";
+    let during = "to open";
     Ok(match dialect {
         Dialect::Scpi => Box::new(
             ScpiSupply::open(
@@ -265,11 +265,11 @@ impl SupplyMonitor {
     /// Identifies the supply and starts polling it.
     pub fn start(mut supply: Box<dyn Supply + Send>) -> Result<Self, HostError> {
         let identity = supply.identify().map_err(|source| HostError::Supply {
-            during: "identify",
+            during: "to identify itself",
             source: Box::new(source),
         })?;
         let mode = supply.mode().map_err(|source| HostError::Supply {
-            during: "mode query",
+            during: "to report its regulation mode",
             source: Box::new(source),
         })?;
         let shared = Arc::new(Mutex::new(Shared {
@@ -308,7 +308,7 @@ impl SupplyMonitor {
             .map_err(|_| HostError::SupplyLost(SupplyLoss::MonitorEnded))?;
         match rx.recv_timeout(REQUEST_TIMEOUT) {
             Ok(r) => r.map_err(|source| HostError::Supply {
-                during: "setting",
+                during: "to apply a setting",
                 source: Box::new(source),
             }),
             Err(_) => Err(HostError::SupplyLost(SupplyLoss::NoAnswer(REQUEST_TIMEOUT))),

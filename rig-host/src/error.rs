@@ -100,7 +100,7 @@ pub enum HostError {
         limit: Option<f32>,
     },
     /// The bench supply failed.
-    #[error("bench supply {during}")]
+    #[error("the bench supply failed {during}")]
     Supply {
         /// What the host was doing.
         during: &'static str,
@@ -175,6 +175,15 @@ pub enum HostError {
     /// An argument or setting is out of range.
     #[error("invalid setting: {0}")]
     Invalid(String),
+    /// The session folder cannot be used: a file is in its place, or it cannot be created.
+    #[error("cannot use {} as the session folder", dir.display())]
+    SessionDir {
+        /// The folder.
+        dir: PathBuf,
+        /// Why (a file in its place: `NotADirectory`; else the OS's error creating it).
+        #[source]
+        source: std::io::Error,
+    },
     /// A summary could not be encoded as JSON.
     #[error("encoding {what} as JSON")]
     Json {

@@ -317,8 +317,20 @@ impl Earlier {
     }
 }
 
-/// Checks that `dir` can take a new session (it holds none), unless resuming.
+/// Checks that `dir` can take a new session (it holds none), unless resuming, and creates it:
+/// a folder that cannot be made (a file in its place, a missing or read-only parent) is refused
+/// here, before the rig is started or moved.
 pub fn check_session_dir(dir: &Path, resume: bool) -> Result<(), HostError> {
+    let unusable = |source| HostError::SessionDir {
+        dir: dir.to_owned(),
+        source,
+    };
+    if dir.exists() && !dir.is_dir() {
+        return Err(unusable(std::io::Error::new(
+            std::io::ErrorKind::NotADirectory,
+            "a file is in its place: give a folder",
+        )));
+    }
     let taken = [files::SWEEP, files::LIMIT, files::PARAMS]
         .iter()
         .any(|f| dir.join(f).exists());
@@ -328,7 +340,7 @@ pub fn check_session_dir(dir: &Path, resume: bool) -> Result<(), HostError> {
             dir.display()
         )));
     }
-    Ok(())
+    std::fs::create_dir_all(dir).map_err(unusable)
 }
 
 /// Whether the session in `dir` has both sweeps complete (`# end: complete`): nothing is left

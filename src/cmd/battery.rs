@@ -55,12 +55,13 @@ enum Sub {
 #[derive(Debug, clap::Args)]
 struct LearnArgs {
     /// The parameter file (its rig curve gives the power when no current is logged).
-    #[arg(long, value_name = "PARAMS")]
+    #[arg(long, value_name = "FILE")]
     params: PathBuf,
     /// Flight logs or folders of flight logs of the pack (nominal flights: no known fault).
     #[arg(required = true, value_name = "FLIGHTS")]
     flights: Vec<PathBuf>,
-    /// The pack type to learn when the flights hold several (`battery_id`, else `NS E Wh`).
+    /// The pack type to learn when the flights hold several: its `battery_id`, else cells and
+    /// rated energy as `NS E Wh` (e.g. "3S 23.6 Wh").
     #[arg(long, value_name = "TYPE")]
     battery_type: Option<String>,
     /// Pin the chemistry prior.

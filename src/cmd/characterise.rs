@@ -55,7 +55,8 @@ pub struct Args {
     /// Continue an interrupted session in the folder.
     #[arg(long)]
     resume: bool,
-    /// The rig's clock rate [default: 1 with ports, 10 simulated].
+    /// The rig's clock rate, × real time (10: ten times faster) [default: 1 with ports, 10
+    /// simulated].
     #[arg(long, value_name = "N")]
     speed: Option<f64>,
     /// Sample stream rate, Hz.
@@ -195,7 +196,8 @@ pub fn run(args: Args) -> Result<()> {
     }
     let mut rig = rig_host::link::connect_rig(&rig_path, speed)
         .with_context(|| format!("connecting to the rig on {rig_path}"))?;
-    let mut supply = SupplyMonitor::start(open_supply(&supply_path, args.dialect)?)
+    let mut supply = open_supply(&supply_path, args.dialect)
+        .and_then(SupplyMonitor::start)
         .with_context(|| format!("connecting to the {} supply on {supply_path}", args.dialect))?;
     let identity = rig.identify().context("identifying the rig")?;
     progress.line(&format!(
@@ -225,11 +227,16 @@ pub fn run(args: Args) -> Result<()> {
     progress.finish();
     let summary = result.map_err(|e| {
         let state = rig_host::sweep::safe_state(&e);
-        anyhow::Error::new(e).context(format!(
-            "characterisation stopped: {state}; the complete steps are in {} (continue with \
-             --resume)",
-            args.output.display()
-        ))
+        // Say where the completed steps are only when a step log was started.
+        let kept = if args.output.join(files::SWEEP).exists() {
+            format!(
+                "the complete steps are in {} (continue with --resume)",
+                args.output.display()
+            )
+        } else {
+            "no step was logged: run it again (with or without --resume)".to_owned()
+        };
+        anyhow::Error::new(e).context(format!("characterisation stopped: {state}; {kept}"))
     })?;
     finish(&args, &summary, false)
 }

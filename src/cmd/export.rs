@@ -94,10 +94,12 @@ struct HeaderArgs {
     output: Option<PathBuf>,
 }
 
-fn emit(text: &str, output: Option<&PathBuf>) -> Result<()> {
+/// Prints `text`, or writes it to `output`, which may not be one of `inputs` (an `-o` naming the
+/// sweep or the parameter file would have replaced it).
+fn emit(text: &str, output: Option<&PathBuf>, inputs: &[PathBuf]) -> Result<()> {
     match output {
         Some(path) => {
-            output::write_atomic(path, text.as_bytes())?;
+            output::write_atomic_checked(path, text.as_bytes(), inputs)?;
             eprintln!("wrote {}", path.display());
         }
         None => print!("{text}"),
@@ -186,6 +188,7 @@ pub fn run(args: Args) -> Result<()> {
             emit(
                 &Px4Params::new(&input(&a, expo)?)?.render(),
                 a.output.as_ref(),
+                std::slice::from_ref(&a.sweep),
             )
         }
         Target::Ardupilot(ar) => {
@@ -243,9 +246,11 @@ pub fn run(args: Args) -> Result<()> {
                     names.join(" + ")
                 );
             }
+            let inputs: Vec<PathBuf> = std::iter::once(&a.sweep).chain(&ar.also).cloned().collect();
             emit(
                 &ArduPilotParams::new(&input, spin)?.render(),
                 a.output.as_ref(),
+                &inputs,
             )
         }
         Target::CHeader(h) => {
@@ -258,6 +263,7 @@ pub fn run(args: Args) -> Result<()> {
             emit(
                 &autopilot::c_header(&params, &buf[..n], "HOVERBENCH_PARAMS_H"),
                 h.output.as_ref(),
+                std::slice::from_ref(&h.params),
             )
         }
     }

@@ -35,11 +35,11 @@ pub struct Args {
     /// Rotors sharing the take-off mass.
     #[arg(long, value_name = "N", default_value_t = 4, value_parser = clap::value_parser!(u8).range(1..))]
     rotors: u8,
-    /// Supply voltage of the sweep [default: mean of its voltage column]; with a log that has
+    /// Supply voltage of the sweep, V [default: mean of its voltage column]; with a log that has
     /// current but no voltage, power is taken as this voltage × current.
     #[arg(long, value_name = "V")]
     volts: Option<f64>,
-    /// Supply voltage of the limit sweep [default: mean of its voltage column].
+    /// Supply voltage of the limit sweep, V [default: mean of its voltage column].
     #[arg(long, value_name = "V")]
     limit_volts: Option<f64>,
     /// Write the parameter file here.
@@ -276,7 +276,8 @@ fn print_human(rep: &Report<'_>) {
         },
         rep.condition_number
     );
-    for w in &rep.warnings {
+    // A warning the fit also gave as a note (a tare offset) was printed above.
+    for w in rep.warnings.iter().filter(|w| !rep.notes.contains(w)) {
         eprintln!("warning: {w}");
     }
     if let Some(l) = &rep.thrust_limit {

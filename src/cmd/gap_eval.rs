@@ -14,7 +14,7 @@ use crate::output::{self, Table};
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Scenarios to run.
-    #[arg(long, default_value_t = 200)]
+    #[arg(long, default_value_t = 200, value_parser = crate::output::at_least_one)]
     scenarios: u64,
     /// First seed.
     #[arg(long, default_value_t = 0)]
@@ -25,7 +25,7 @@ pub struct Args {
     #[arg(long, default_value = "all", value_name = "FAMILIES")]
     families: String,
     /// Worker threads.
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = 2, value_parser = crate::output::at_least_one_usize)]
     threads: usize,
     /// Print machine-readable JSON (every scenario, every family, the confusion matrix).
     #[arg(long)]
@@ -66,9 +66,10 @@ fn row(g: &GroupSummary) -> Vec<String> {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> Result<()> {
+    let end = crate::output::seed_end(args.seed_start, args.scenarios)?;
     let families = select_families(&args.families)?;
     let opts = StudyOptions {
-        seeds: args.seed_start..args.seed_start + args.scenarios,
+        seeds: args.seed_start..end,
         families,
         threads: args.threads,
         unexplained_rule: args.unexplained_rule.into(),

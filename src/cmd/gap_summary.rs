@@ -14,7 +14,8 @@ use crate::output::{self, ModelArgs, Table};
 /// eq. (8) accounts for.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The summaries.
+    /// The mission summaries CSV: name, plan, battery_mass_kg, energy_density_wh_per_kg,
+    /// payload_mass_kg, payload_power_w, measured_mean_min, measured_std_min, samples.
     file: PathBuf,
     #[command(flatten)]
     model: ModelArgs,
@@ -67,7 +68,19 @@ pub fn run(args: Args) -> Result<()> {
             samples: count("samples")?,
         });
     }
-    let gaps = explain(&model, &rows)?;
+    // Row by row, so that a mission the model cannot fly (a pack over the thrust limit, a
+    // thrust outside the curve) names its line.
+    let mut gaps = Vec::with_capacity(rows.len());
+    for (r, row) in rows.iter().enumerate() {
+        gaps.extend(explain(&model, std::slice::from_ref(row)).with_context(|| {
+            format!(
+                "{}, line {} ({})",
+                args.file.display(),
+                table.line(r),
+                row.name
+            )
+        })?);
+    }
     if args.json {
         return output::print_json(&gaps);
     }
@@ -77,7 +90,7 @@ pub fn run(args: Args) -> Result<()> {
         "mission",
         "printed eq. (8)",
         "consistent eq. (8)",
-        "measured",
+        "measured (± s.e.)",
         "eq. (8) accounts for",
     ]);
     for g in &gaps {

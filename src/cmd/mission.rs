@@ -20,7 +20,8 @@ pub struct Args {
     #[command(flatten)]
     model: ModelArgs,
     /// The plan, e.g. "3x(hover 2m; attach 30m); hover until empty". Segments: hover DURATION,
-    /// attach DURATION, hover until reserve N%, attach until reserve N%, hover until empty.
+    /// attach DURATION, hover until reserve N%, attach until reserve N%, hover until empty
+    /// (`fly` is read as hover; `perch` and `attached` as attach).
     #[arg(long, value_name = "PLAN")]
     plan: String,
     /// m_B: battery mass (kg; or e.g. 144g).

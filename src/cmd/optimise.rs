@@ -18,7 +18,7 @@ pub struct Args {
     energy_density: Option<f64>,
     /// Rank the packs of a catalogue CSV (name, cells, capacity_mah, mass_g, optional
     /// energy_wh or energy_density_wh_per_kg) instead.
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, value_name = "FILE", conflicts_with = "energy_density")]
     catalogue: Option<PathBuf>,
     /// Print machine-readable JSON.
     #[arg(long)]

@@ -18,7 +18,7 @@ use reports::replay::{ReplayErrorFigure, ReplayFlightFigure, ReplayMethodSeries}
 pub struct Args {
     /// The parameter file (params.toml: rig curve, and a [battery] section for the online
     /// estimator).
-    #[arg(long, value_name = "PARAMS")]
+    #[arg(long, value_name = "FILE")]
     params: PathBuf,
     /// Flight logs or folders of flight logs (with their metadata sidecars).
     #[arg(required = true, value_name = "FLIGHTS")]

@@ -13,7 +13,7 @@ use replay_eval::{StudyOptions, select_families, study, table, to_json};
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Scenarios to run.
-    #[arg(long, default_value_t = 40)]
+    #[arg(long, default_value_t = 40, value_parser = crate::output::at_least_one)]
     scenarios: u64,
     /// First seed.
     #[arg(long, default_value_t = 0)]
@@ -23,7 +23,7 @@ pub struct Args {
     #[arg(long, default_value = "all", value_name = "FAMILIES")]
     families: String,
     /// Worker threads.
-    #[arg(long, default_value_t = 2)]
+    #[arg(long, default_value_t = 2, value_parser = crate::output::at_least_one_usize)]
     threads: usize,
     /// Print machine-readable JSON (every scenario's flights and checkpoints, every group's
     /// summary and targets).
@@ -33,9 +33,10 @@ pub struct Args {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> Result<()> {
+    let end = crate::output::seed_end(args.seed, args.scenarios)?;
     let families = select_families(&args.families)?;
     let opts = StudyOptions {
-        seeds: args.seed..args.seed + args.scenarios,
+        seeds: args.seed..end,
         families,
         threads: args.threads,
         config: estimator::online::OnlineConfig::default(),

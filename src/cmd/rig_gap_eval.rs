@@ -17,7 +17,7 @@ use crate::output::{self, Table};
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Number of scenarios.
-    #[arg(long, default_value_t = 100)]
+    #[arg(long, default_value_t = 100, value_parser = crate::output::at_least_one)]
     scenarios: u64,
     /// First seed.
     #[arg(long, default_value_t = 0)]
@@ -48,6 +48,7 @@ fn outcome(s: &Scenario) -> Result<Outcome, String> {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> Result<()> {
+    let end = crate::output::seed_end(args.seed, args.scenarios)?;
     let bar = ProgressBar::new(args.scenarios);
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} scenarios, {eta} left")
@@ -57,14 +58,14 @@ pub fn run(args: Args) -> Result<()> {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     }
     let mut runs: Vec<Scored> = Vec::new();
-    for seed in args.seed..args.seed + args.scenarios {
+    for seed in args.seed..end {
         let s = Scenario::draw(seed);
         let o = outcome(&s);
         runs.push(score(s, o));
         bar.inc(1);
     }
     bar.finish_and_clear();
-    let summary = summarise((args.seed, args.seed + args.scenarios - 1), &runs);
+    let summary = summarise((args.seed, end - 1), &runs);
     if args.json {
         return output::print_json(&serde_json::json!({ "summary": summary, "runs": runs }));
     }

@@ -17,7 +17,7 @@ pub struct Args {
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
     /// Supply voltage at start, V (defaults to the preset's).
-    #[arg(long)]
+    #[arg(long, value_name = "V")]
     pub supply_v: Option<f64>,
     /// Print the port and the rig's settings as one JSON line (then serve as without it).
     #[arg(long)]

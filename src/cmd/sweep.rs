@@ -64,7 +64,7 @@ pub struct Args {
     /// Continue an interrupted sweep from its last complete step.
     #[arg(long)]
     resume: bool,
-    /// The rig's clock rate (a simulated rig's --speed; 1 for hardware).
+    /// The rig's clock rate, × real time (a simulated rig's --speed; 1 for hardware).
     #[arg(long, default_value_t = 1.0, value_name = "N")]
     speed: f64,
     /// Sample stream rate, Hz.
@@ -313,12 +313,26 @@ pub fn run(args: Args) -> Result<()> {
             }
         );
     }
+    // The logs' folders must be there before the rig moves: a sweep that cannot write its
+    // first step would stop the rig half-way.
+    for path in [&args.output, &samples] {
+        if let Some(parent) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+            if !parent.is_dir() {
+                bail!(
+                    "cannot write {}: the folder {} does not exist",
+                    path.display(),
+                    parent.display()
+                );
+            }
+        }
+    }
     let stop = interrupt_flag();
     let mut rig = rig_host::link::connect_rig(&args.rig, args.speed)
         .with_context(|| format!("connecting to the rig on {}", args.rig))?;
     let identity = rig.identify().context("identifying the rig")?;
-    let mut supply =
-        SupplyMonitor::start(open_supply(&args.supply, args.dialect)?).with_context(|| {
+    let mut supply = open_supply(&args.supply, args.dialect)
+        .and_then(SupplyMonitor::start)
+        .with_context(|| {
             format!(
                 "connecting to the {} supply on {}",
                 args.dialect, args.supply
