@@ -1856,6 +1856,65 @@ mod tests {
         assert!(early_empty.voltage_rmse_v > 1.7 && early_empty.voltage_rmse_v < 3.4);
     }
 
+    /// Flights of a 4S pack with 0.05 Ω of series resistance beyond the nominal, hovering
+    /// until the cut-off, drawn from the model itself (`internal_resistance` = 0.05) with a
+    /// dip mid-discharge that the learned curve lacks (0.1 V at its deepest, none at the start
+    /// and at the cut-off). On such flights the early half's fit used to empty its window by
+    /// predicting the pack empty as the rotors start (0.33 Ω); both halves must now find the
+    /// resistance.
+    #[test]
+    fn a_true_extra_resistance_is_stable_between_the_halves() {
+        use crate::battery::LearnedBattery;
+        use crate::logs::ConstantPower;
+        let curve = ConstantPower {
+            hover_power_w: 150.0,
+            reference_mass_kg: f64::NAN,
+        };
+        let model = Model {
+            curve: &curve,
+            rotor_count: 1,
+        };
+        let batteries = BatterySet::fixed(LearnedBattery::lipo());
+        let mut truth = EffectParams::baseline();
+        truth.set(Effect::InternalResistance, 0.05);
+        let flights: Vec<FlightRecord> = (0..6)
+            .map(|k| {
+                let mut f = cutoff_flight();
+                f.name = format!("hover{k}");
+                let n = 3600;
+                f.time_s = (0..n).map(f64::from).collect();
+                f.phase = (0..n)
+                    .map(|i| if i < 10 { Phase::Ground } else { Phase::Hover })
+                    .collect();
+                f.voltage_v = vec![16.8 - 0.02 * f64::from(k); n as usize];
+                f.current_a = Some(vec![0.0; n as usize]);
+                f.info.battery_energy_wh = 20.0 + f64::from(k);
+                let pred = model.predict(&f, batteries.for_flight(&f), &truth, 1);
+                let end = pred.index.len();
+                assert!(end > 300 && end < 3000, "{end} samples");
+                f.time_s.truncate(end);
+                f.phase.truncate(end);
+                let last_s = f.time_s[end - 1];
+                f.voltage_v = pred
+                    .voltage_v
+                    .iter()
+                    .zip(&f.time_s)
+                    .map(|(v, t)| v - 0.1 * (std::f64::consts::PI * t / last_s).sin())
+                    .collect();
+                f.current_a = Some(pred.current_a.clone());
+                f
+            })
+            .collect();
+        let train: Vec<&FlightRecord> = flights.iter().collect();
+        let ev = Evaluator::with_flights(model, &batteries, &DiagnoseOptions::default(), &train);
+        let (params, _) = ev.fit(&train, &[Effect::InternalResistance], &truth);
+        let s = check_stability(&ev, &train, &[Effect::InternalResistance], &params);
+        assert!((s[0].early - 0.05).abs() < 0.01, "{s:?}");
+        assert!((s[0].late - 0.05).abs() < 0.01, "{s:?}");
+        let th = DiagnoseOptions::default().thresholds;
+        assert!(s[0].z < th.stability_z, "{s:?}");
+    }
+
     /// Where the endurance is counted (the whole flight, the late half) it alone pays for the
     /// samples the model did not reach: they are not counted twice.
     #[test]
