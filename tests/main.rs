@@ -11,6 +11,8 @@
 // binary of its own; the files stay unchanged.
 #![allow(clippy::duplicate_mod)]
 
+#[path = "audit_s10.rs"]
+mod audit_s10;
 #[path = "audit_s9.rs"]
 mod audit_s9;
 #[path = "cli.rs"]

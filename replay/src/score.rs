@@ -251,6 +251,27 @@ impl Replay {
         }
     }
 
+    /// The most common reason among the skipped flights, as (how many share it, the first
+    /// such flight): reasons that differ only in their numbers ("flies only 2.0 s" and "flies
+    /// only 4.5 s") count as one. `None` when nothing was skipped.
+    pub fn most_common_skip(&self) -> Option<(usize, &SkippedFlight)> {
+        let mut groups: Vec<(String, usize, &SkippedFlight)> = Vec::new();
+        for k in &self.skipped {
+            let key = without_numbers(&k.reason);
+            match groups.iter_mut().find(|g| g.0 == key) {
+                Some(g) => g.1 += 1,
+                None => groups.push((key, 1, k)),
+            }
+        }
+        // the first of the largest groups, in the order the flights were given (`max_by_key`
+        // keeps the last maximum, hence the reversal)
+        groups
+            .into_iter()
+            .rev()
+            .max_by_key(|g| g.1)
+            .map(|(_, n, k)| (n, k))
+    }
+
     /// The `--json` document: `methods`, `flights` (each with `name` and `checkpoints`
     /// [{`fraction`, `true_remaining_s`, `predicted_remaining_s`, `sigma_s`, `baselines`
     /// {name: s}}]), `skipped` [{`name`, `reason`}] and `summary`.
@@ -444,5 +465,68 @@ fn csv_field(s: &str) -> String {
         format!("\"{}\"", s.replace('"', "\"\""))
     } else {
         s.to_owned()
+    }
+}
+
+/// `reason` with every number (digits, with their sign and decimal point) replaced by `#`.
+fn without_numbers(reason: &str) -> String {
+    let mut out = String::with_capacity(reason.len());
+    let mut in_number = false;
+    for c in reason.chars() {
+        let numeric = c.is_ascii_digit() || (in_number && c == '.');
+        if numeric {
+            if !in_number {
+                if out.ends_with(['-', '+', '\u{2212}']) {
+                    out.pop();
+                }
+                out.push('#');
+            }
+        } else {
+            out.push(c);
+        }
+        in_number = numeric;
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn skipped(reasons: &[&str]) -> Replay {
+        let skipped = reasons
+            .iter()
+            .enumerate()
+            .map(|(i, r)| SkippedFlight {
+                name: format!("f{i}"),
+                reason: (*r).to_owned(),
+            })
+            .collect();
+        Replay::new(Vec::new(), skipped)
+    }
+
+    #[test]
+    fn the_most_common_skip_reason_counts_reasons_that_differ_only_in_numbers_as_one() {
+        let r = skipped(&[
+            "landed before the cut-off",
+            "flies only 2.0 s (under 10 s)",
+            "final voltage 11.42 V is above its 9.00 V cut-off",
+            "flies only 4.5 s (under 10 s)",
+            "final voltage -1 V is above its 9.00 V cut-off",
+            "flies only 0.0 s (under 10 s)",
+        ]);
+        let (n, first) = r.most_common_skip().unwrap();
+        assert_eq!((n, first.name.as_str()), (3, "f1"));
+        assert_eq!(
+            without_numbers("final voltage -1.25 V is above its 9.00 V cut-off"),
+            "final voltage # V is above its # V cut-off"
+        );
+    }
+
+    #[test]
+    fn ties_go_to_the_reason_seen_first_and_nothing_skipped_gives_none() {
+        let r = skipped(&["b 1", "a", "b 2", "a"]);
+        assert_eq!(r.most_common_skip().unwrap().1.name, "f0");
+        assert!(skipped(&[]).most_common_skip().is_none());
     }
 }

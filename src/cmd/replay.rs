@@ -14,6 +14,9 @@ use reports::replay::{ReplayErrorFigure, ReplayFlightFigure, ReplayMethodSeries}
 /// and three baselines — PX4's time_remaining_s, a rated-capacity coulomb counter and the static
 /// model — exactly as firmware would, and score the predicted remaining time at 25, 50, 75 and
 /// 90 % of every flight that ends at the cut-off (others are listed as skipped, with why).
+///
+/// When no flight is scored, the listing (and the JSON, and the -o folder) is still written,
+/// then it exits with 2 and the most common reason.
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// The parameter file (params.toml: rig curve, and a [battery] section for the online
@@ -23,7 +26,8 @@ pub struct Args {
     /// Flight logs or folders of flight logs (with their metadata sidecars).
     #[arg(required = true, value_name = "FLIGHTS")]
     flights: Vec<PathBuf>,
-    /// Print machine-readable JSON instead of the table.
+    /// Print machine-readable JSON instead of the table (with no flight scored: the skipped
+    /// flights and an empty summary, then exit 2).
     #[arg(long)]
     json: bool,
     /// Write plots (per flight and a summary, SVG and PNG), the table as CSV and the JSON into
@@ -84,7 +88,25 @@ pub fn run(args: Args) -> Result<()> {
             println!("wrote {}", dir.display());
         }
     }
+    if r.summary.scored_flights == 0 {
+        return Err(nothing_scored(&r));
+    }
     Ok(())
+}
+
+/// The error for a replay that scored no flight: how many were skipped and the most common
+/// reason (the listing above names every one).
+fn nothing_scored(r: &Replay) -> anyhow::Error {
+    match r.most_common_skip() {
+        Some((n, first)) => anyhow::anyhow!(
+            "no flight was scored: all {} skipped; the most common reason ({n} of {}): {}: {}",
+            r.skipped.len(),
+            r.skipped.len(),
+            first.name,
+            first.reason
+        ),
+        None => anyhow::anyhow!("no flight was scored"),
+    }
 }
 
 fn flight_figure(f: &FlightReplay) -> ReplayFlightFigure {

@@ -1,0 +1,80 @@
+//! Session 10: what session 9's user pass found and left — a replay that scores nothing, flags
+//! that act only with another flag, a negative thrust mid-sweep, and parameters a sweep cannot
+//! identify — now says so, with exit 2 where nothing useful was done.
+
+mod common;
+
+use common::{outcome, shared_path};
+use serde_json::Value;
+
+/// `hoverbench ARGS` exits with 2; returns (stdout, stderr).
+fn fails(args: &[&str]) -> (String, String) {
+    let (code, out, err) = outcome(args);
+    assert_eq!(code, 2, "{args:?}:\n{out}\n{err}");
+    assert!(!err.contains("panicked"), "{args:?}:\n{err}");
+    (out, err)
+}
+
+const REPLAY_PARAMS: &str = "tests/data/replay/params.toml";
+const LANDED: &str = "tests/data/replay/flights/13-landed-A.csv";
+const STOPPED: &str = "tests/data/replay/flights/14-stopped-A.csv";
+
+#[test]
+fn replay_that_scores_no_flight_lists_why_then_exits_2_with_the_most_common_reason() {
+    let (out, err) = fails(&["replay", "--params", REPLAY_PARAMS, LANDED, STOPPED]);
+    // The listing is still printed, every flight with its reason.
+    assert!(out.contains("skipped (2):"), "{out}");
+    assert!(
+        out.contains("13-landed-A: landed before the cut-off"),
+        "{out}"
+    );
+    assert!(out.contains("14-stopped-A: ends at 11.11 V"), "{out}");
+    assert!(
+        err.contains(
+            "error: no flight was scored: all 2 skipped; the most common reason (1 of 2): \
+             13-landed-A: landed before the cut-off"
+        ),
+        "{err}"
+    );
+    // --json: the document first (skipped flights, empty summary), then exit 2.
+    let (out, err) = fails(&[
+        "replay",
+        "--params",
+        REPLAY_PARAMS,
+        LANDED,
+        STOPPED,
+        "--json",
+    ]);
+    let v: Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(v["flights"].as_array().unwrap().len(), 0);
+    assert_eq!(v["skipped"].as_array().unwrap().len(), 2);
+    assert_eq!(v["summary"]["scored_flights"], 0);
+    assert!(err.contains("no flight was scored"), "{err}");
+    // One scored flight among skipped ones is a success, as before.
+    let (code, _, _) = outcome(&[
+        "replay",
+        "--params",
+        REPLAY_PARAMS,
+        LANDED,
+        "tests/data/replay/flights/9-hover-A.csv",
+    ]);
+    assert_eq!(code, 0);
+}
+
+#[test]
+fn replay_on_the_real_px4_and_ardupilot_logs_scores_none_as_the_readme_says() {
+    let ulog = shared_path("flightlogs/ulog");
+    let dataflash = shared_path("flightlogs/dataflash");
+    let (out, err) = fails(&[
+        "replay",
+        "--params",
+        REPLAY_PARAMS,
+        ulog.to_str().unwrap(),
+        dataflash.to_str().unwrap(),
+    ]);
+    assert!(out.contains("skipped (9):"), "{out}");
+    assert!(
+        err.contains("no flight was scored: all 9 skipped; the most common reason (3 of 9): flightreview_ekf_failure: ends at 23.97 V"),
+        "{err}"
+    );
+}
