@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{outcome, shared_path};
+use common::{data, outcome, shared_path};
 use serde_json::Value;
 
 /// `hoverbench ARGS` exits with 2; returns (stdout, stderr).
@@ -77,4 +77,61 @@ fn replay_on_the_real_px4_and_ardupilot_logs_scores_none_as_the_readme_says() {
         err.contains("no flight was scored: all 9 skipped; the most common reason (3 of 9): flightreview_ekf_failure: ends at 23.97 V"),
         "{err}"
     );
+}
+
+#[test]
+fn export_refuses_battery_flags_without_a_battery_and_an_empty_voltage_above_the_full_one() {
+    let sweep = data("paper-sweep.csv");
+    for flavour in ["px4", "ardupilot"] {
+        // Alone, these flags used to be ignored with exit 0.
+        for (flag, value) in [
+            ("--empty-cell-v", "4.3"),
+            ("--full-cell-v", "4.1"),
+            ("--internal-resistance", "0.02"),
+        ] {
+            let (out, err) = fails(&["export", flavour, "--sweep", &sweep, flag, value]);
+            assert!(out.is_empty(), "{out}");
+            assert!(
+                err.contains(&format!(
+                    "{flag} sets a battery parameter, which is written only for a battery: give --cells and --capacity too"
+                )),
+                "{flavour} {flag}:\n{err}"
+            );
+        }
+    }
+    let battery = ["--cells", "3", "--capacity", "2100"];
+    let with = |extra: &[&str]| -> Vec<String> {
+        ["export", "px4", "--sweep", &sweep]
+            .iter()
+            .chain(&battery)
+            .chain(extra)
+            .map(|s| (*s).to_owned())
+            .collect()
+    };
+    for (extra, said) in [
+        (
+            vec!["--empty-cell-v", "4.3"],
+            "the empty voltage per cell (4.3 V, --empty-cell-v) is at or above the full one (4.2 V, the default)",
+        ),
+        (
+            vec!["--empty-cell-v", "3.7", "--full-cell-v", "3.7"],
+            "the empty voltage per cell (3.7 V, --empty-cell-v) is at or above the full one (3.7 V, --full-cell-v)",
+        ),
+        (
+            vec!["--full-cell-v", "2.9"],
+            "the empty voltage per cell (3 V, the default) is at or above the full one (2.9 V, --full-cell-v)",
+        ),
+    ] {
+        let args = with(&extra);
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let (out, err) = fails(&args);
+        assert!(out.is_empty(), "{out}");
+        assert!(err.contains(said), "{extra:?}:\n{err}");
+    }
+    // With the battery, the flags are written.
+    let args = with(&["--empty-cell-v", "3.3", "--full-cell-v", "4.15"]);
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let px4 = common::ok(&args);
+    assert!(px4.contains("BAT1_V_EMPTY\t3.300000"), "{px4}");
+    assert!(px4.contains("BAT1_V_CHARGED\t4.150000"), "{px4}");
 }

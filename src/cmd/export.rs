@@ -54,13 +54,13 @@ struct FlightArgs {
     /// Battery capacity, mAh.
     #[arg(long, value_name = "MAH", requires = "cells")]
     capacity: Option<f64>,
-    /// Landing voltage per cell, V (the paper's 3.0 V).
-    #[arg(long, value_name = "V", default_value_t = 3.0)]
-    empty_cell_v: f64,
-    /// Full voltage per cell, V.
-    #[arg(long, value_name = "V", default_value_t = 4.2)]
-    full_cell_v: f64,
-    /// Pack internal resistance, Ω, when estimated.
+    /// Landing voltage per cell, V (with --cells and --capacity; default the paper's 3.0 V).
+    #[arg(long, value_name = "V")]
+    empty_cell_v: Option<f64>,
+    /// Full voltage per cell, V (with --cells and --capacity; default 4.2 V).
+    #[arg(long, value_name = "V")]
+    full_cell_v: Option<f64>,
+    /// Pack internal resistance, Ω, when estimated (with --cells and --capacity).
     #[arg(long, value_name = "OHM")]
     internal_resistance: Option<f64>,
     /// Write the file here (otherwise print it).
@@ -157,25 +157,66 @@ fn sweep(path: &Path, a: &FlightArgs) -> Result<Sweep> {
     })
 }
 
+/// Landing voltage per cell without --empty-cell-v, V: the paper's cut-off.
+const DEFAULT_EMPTY_CELL_V: f64 = 3.0;
+/// Full voltage per cell without --full-cell-v, V.
+const DEFAULT_FULL_CELL_V: f64 = 4.2;
+
 fn battery(a: &FlightArgs) -> Result<Option<BatterySpec>> {
-    Ok(match (a.cells, a.capacity) {
-        (Some(cells), Some(capacity_mah)) => {
-            if !(capacity_mah.is_finite() && capacity_mah > 0.0) {
-                bail!("--capacity must be a positive number of mAh, got {capacity_mah}");
-            }
-            if !(a.empty_cell_v > 0.0 && a.full_cell_v > a.empty_cell_v) {
-                bail!("need 0 < --empty-cell-v < --full-cell-v");
-            }
-            Some(BatterySpec {
-                cells,
-                capacity_mah,
-                empty_cell_v: a.empty_cell_v,
-                full_cell_v: a.full_cell_v,
-                internal_resistance_ohm: a.internal_resistance,
-            })
+    let (Some(cells), Some(capacity_mah)) = (a.cells, a.capacity) else {
+        // clap makes --cells and --capacity come together; the flags below act only on the
+        // battery parameters they write, so alone they would be ignored.
+        let given = [
+            ("--empty-cell-v", a.empty_cell_v.is_some()),
+            ("--full-cell-v", a.full_cell_v.is_some()),
+            ("--internal-resistance", a.internal_resistance.is_some()),
+        ];
+        if let Some((flag, _)) = given.iter().find(|g| g.1) {
+            bail!(
+                "{flag} sets a battery parameter, which is written only for a battery: give --cells and --capacity too"
+            );
         }
-        _ => None,
-    })
+        return Ok(None);
+    };
+    if !(capacity_mah.is_finite() && capacity_mah > 0.0) {
+        bail!("--capacity must be a positive number of mAh, got {capacity_mah}");
+    }
+    let empty_cell_v = a.empty_cell_v.unwrap_or(DEFAULT_EMPTY_CELL_V);
+    let full_cell_v = a.full_cell_v.unwrap_or(DEFAULT_FULL_CELL_V);
+    if !(empty_cell_v.is_finite() && empty_cell_v > 0.0) {
+        bail!("--empty-cell-v must be a positive voltage per cell, got {empty_cell_v}");
+    }
+    if !(full_cell_v.is_finite() && full_cell_v > 0.0) {
+        bail!("--full-cell-v must be a positive voltage per cell, got {full_cell_v}");
+    }
+    if empty_cell_v >= full_cell_v {
+        bail!(
+            "the empty voltage per cell ({empty_cell_v} V{}) is at or above the full one ({full_cell_v} V{}): the landing voltage must be below the full-charge one",
+            if a.empty_cell_v.is_some() {
+                ", --empty-cell-v"
+            } else {
+                ", the default"
+            },
+            if a.full_cell_v.is_some() {
+                ", --full-cell-v"
+            } else {
+                ", the default"
+            },
+        );
+    }
+    if let Some(r) = a
+        .internal_resistance
+        .filter(|r| !(r.is_finite() && *r >= 0.0))
+    {
+        bail!("--internal-resistance must be a resistance of 0 Ω or more, got {r}");
+    }
+    Ok(Some(BatterySpec {
+        cells,
+        capacity_mah,
+        empty_cell_v,
+        full_cell_v,
+        internal_resistance_ohm: a.internal_resistance,
+    }))
 }
 
 /// Runs the subcommand.
