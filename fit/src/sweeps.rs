@@ -36,7 +36,7 @@
 //! ```
 
 use estimator::file::{ParamsFile, Provenance};
-use import::stand::{PowerSource, StandLog, Step};
+use import::stand::{PowerSource, StandLog, Step, ThrustOddity};
 
 use crate::export::{CurveLabels, LimitRecord, params_file};
 use crate::{FitError, PolyFit, ThrustLimit, ThrustLimitOptions, thrust_limit};
@@ -164,6 +164,9 @@ pub struct NominalSweep {
     pub source_name: String,
     /// Its SHA-256, hex.
     pub sha256: String,
+    /// Thrust readings a user should look at (a tare offset, a glitch), kept in the fit as
+    /// logged (stand logs only).
+    pub thrust_oddities: Vec<ThrustOddity>,
 }
 
 fn check_volts(v: Option<f64>) -> Result<Option<f64>, SweepFitError> {
@@ -325,6 +328,7 @@ impl NominalSweep {
             supply_voltage_v,
             source_name: log.source_name.clone(),
             sha256: import::sha256_hex(&log.bytes),
+            thrust_oddities: log.thrust_oddities(),
         })
     }
 
@@ -347,6 +351,7 @@ impl NominalSweep {
             supply_voltage_v: check_volts(supply_voltage_v)?,
             source_name: source_name.to_owned(),
             sha256: import::sha256_hex(bytes),
+            thrust_oddities: Vec::new(),
         })
     }
 
@@ -591,14 +596,29 @@ pub fn fit_sweeps(
         limit_record.as_ref(),
         provenance,
     );
-    if nominal.is_thrust_curve() && params.curve.valid_min < 0.0 {
-        let note = format!(
-            "the lowest step reads {:.3} g (a tare offset at idle?): the curve is valid from 0 g",
-            params.curve.valid_min
-        );
-        params.curve.valid_min = 0.0;
+    // A tare offset, or a glitch, named by its line; the step is kept in the fit. The curve is
+    // valid from 0 g whatever read below it.
+    let below_zero = nominal.is_thrust_curve() && params.curve.valid_min < 0.0;
+    let mut clamp_said = false;
+    for o in &nominal.thrust_oddities {
+        let mut note = format!("{}, {o}", nominal.source_name);
+        if below_zero && !clamp_said && o.thrust_g() <= params.curve.valid_min {
+            note.push_str("; the curve is valid from 0 g");
+            clamp_said = true;
+        }
         params.fit.warnings.push(note.clone());
         notes.push(note);
+    }
+    if below_zero {
+        if !clamp_said {
+            let note = format!(
+                "the thrust reads down to {:.3} g: the curve is valid from 0 g",
+                params.curve.valid_min
+            );
+            params.fit.warnings.push(note.clone());
+            notes.push(note);
+        }
+        params.curve.valid_min = 0.0;
     }
     let stats = fitted.stats();
     let l = limit_record.map(|r| r.limit);

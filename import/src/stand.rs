@@ -666,6 +666,195 @@ impl StandLog {
         self.column(|s| s.voltage_v)
             .map(|v| v.iter().sum::<f64>() / v.len() as f64)
     }
+
+    /// Thrust readings worth a look before fitting, in file order: an idle step below 0 g (a
+    /// tare offset), a step past idle that reads below 0 g and below idle (which no tare
+    /// offset explains), and a step on a throttle ramp far off both its neighbours. Nothing is
+    /// changed or dropped; see [`ThrustOddity`].
+    pub fn thrust_oddities(&self) -> Vec<ThrustOddity> {
+        let steps = &self.steps;
+        let n = steps.len();
+        if n == 0 {
+            return Vec::new();
+        }
+        let top_g = steps.iter().map(|s| s.thrust_g).fold(0.0, f64::max);
+        // Readings closer than this are noise, not a second cause.
+        let margin_g = (ODDITY_MARGIN_FRACTION * top_g).max(ODDITY_MIN_MARGIN_G);
+        let throttle = self.column(|s| s.throttle);
+        // The idle steps: the lowest throttle; without a throttle column, the lower of the
+        // first and last steps (a sweep starts, and an up-and-down one also ends, at idle).
+        let idle: Vec<usize> = match &throttle {
+            Some(t) => {
+                let low = t.iter().copied().fold(f64::INFINITY, f64::min);
+                (0..n).filter(|&i| t[i] <= low).collect()
+            }
+            None => {
+                let low = steps[0].thrust_g.min(steps[n - 1].thrust_g);
+                [0, n - 1]
+                    .into_iter()
+                    .filter(|&i| steps[i].thrust_g <= low)
+                    .collect()
+            }
+        };
+        let idle_g = idle
+            .iter()
+            .map(|&i| steps[i].thrust_g)
+            .fold(f64::INFINITY, f64::min);
+        let mut out = Vec::new();
+        let tare = idle
+            .iter()
+            .copied()
+            .filter(|&i| steps[i].thrust_g < 0.0)
+            .min_by(|&a, &b| steps[a].thrust_g.total_cmp(&steps[b].thrust_g));
+        if let Some(i) = tare {
+            out.push(ThrustOddity::TareOffset {
+                line: steps[i].line,
+                thrust_g: steps[i].thrust_g,
+            });
+        }
+        // A negative step past idle is a glitch when it also dips below its neighbours (in file
+        // order): a run of readings near 0 g below the motor's start-up is the cell's noise.
+        let dips = |i: usize| {
+            let lower = [i.checked_sub(1), Some(i + 1).filter(|&j| j < n)]
+                .into_iter()
+                .flatten()
+                .map(|j| steps[j].thrust_g)
+                .fold(f64::INFINITY, f64::min);
+            steps[i].thrust_g < lower - margin_g
+        };
+        // The steps the ramp check compares with each other: all but the negative ones past
+        // idle (named first), then, one at a time, the step farthest off its neighbours.
+        let mut kept: Vec<usize> = Vec::with_capacity(n);
+        for (i, s) in steps.iter().enumerate() {
+            if !idle.contains(&i) && s.thrust_g < 0.0 && s.thrust_g < idle_g - margin_g && dips(i) {
+                out.push(ThrustOddity::NegativePastIdle {
+                    line: s.line,
+                    thrust_g: s.thrust_g,
+                    idle_g,
+                });
+            } else {
+                kept.push(i);
+            }
+        }
+        if let Some(t) = &throttle {
+            // On a ramp (throttle strictly rising or falling through the step) thrust follows
+            // the throttle: a step beyond both neighbours by more than the spike margin is off
+            // it. The worst is named and left out of its neighbours' checks, then the next.
+            let spike_margin_g = (ODDITY_SPIKE_FRACTION * top_g).max(ODDITY_MIN_MARGIN_G);
+            loop {
+                let worst = (1..kept.len().saturating_sub(1))
+                    .filter_map(|j| {
+                        let (a, i, b) = (kept[j - 1], kept[j], kept[j + 1]);
+                        let ramp = (t[a] < t[i] && t[i] < t[b]) || (t[a] > t[i] && t[i] > t[b]);
+                        let (ga, gi, gb) =
+                            (steps[a].thrust_g, steps[i].thrust_g, steps[b].thrust_g);
+                        let beyond = (ga.min(gb) - gi).max(gi - ga.max(gb)) - spike_margin_g;
+                        (ramp && beyond > 0.0).then_some((j, beyond))
+                    })
+                    .max_by(|x, y| x.1.total_cmp(&y.1));
+                let Some((j, _)) = worst else { break };
+                let (a, i, b) = (kept[j - 1], kept[j], kept[j + 1]);
+                out.push(ThrustOddity::OffTheRamp {
+                    line: steps[i].line,
+                    thrust_g: steps[i].thrust_g,
+                    before_g: steps[a].thrust_g,
+                    after_g: steps[b].thrust_g,
+                });
+                kept.remove(j);
+            }
+        }
+        out.sort_by_key(ThrustOddity::line);
+        out
+    }
+}
+
+/// Readings within this fraction of the sweep's top thrust of the idle reading are noise.
+const ODDITY_MARGIN_FRACTION: f64 = 0.02;
+/// A step this fraction of the top thrust beyond both ramp neighbours is off the ramp.
+const ODDITY_SPIKE_FRACTION: f64 = 0.1;
+/// The least margin, g (a load cell's noise at idle).
+const ODDITY_MIN_MARGIN_G: f64 = 1.0;
+
+/// A thrust reading a user should look at ([`StandLog::thrust_oddities`]); its text names the
+/// line and the likely cause. The step is kept as logged.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ThrustOddity {
+    /// The idle step (the lowest throttle) reads below 0 g: a tare offset at idle.
+    TareOffset {
+        /// 1-based line of the step.
+        line: u64,
+        /// Its thrust, g.
+        thrust_g: f64,
+    },
+    /// A step past idle reads below 0 g and below the idle step: a tare offset would shift
+    /// idle too, so it looks like a glitch or an outlier.
+    NegativePastIdle {
+        /// 1-based line of the step.
+        line: u64,
+        /// Its thrust, g.
+        thrust_g: f64,
+        /// The idle step's thrust, g.
+        idle_g: f64,
+    },
+    /// A step on a throttle ramp reads far below or above both neighbours.
+    OffTheRamp {
+        /// 1-based line of the step.
+        line: u64,
+        /// Its thrust, g.
+        thrust_g: f64,
+        /// The step before's thrust, g.
+        before_g: f64,
+        /// The step after's thrust, g.
+        after_g: f64,
+    },
+}
+
+impl ThrustOddity {
+    /// The step's line.
+    pub fn line(&self) -> u64 {
+        match self {
+            Self::TareOffset { line, .. }
+            | Self::NegativePastIdle { line, .. }
+            | Self::OffTheRamp { line, .. } => *line,
+        }
+    }
+
+    /// The step's thrust, g.
+    pub fn thrust_g(&self) -> f64 {
+        match self {
+            Self::TareOffset { thrust_g, .. }
+            | Self::NegativePastIdle { thrust_g, .. }
+            | Self::OffTheRamp { thrust_g, .. } => *thrust_g,
+        }
+    }
+}
+
+impl std::fmt::Display for ThrustOddity {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            Self::TareOffset { line, thrust_g } => write!(
+                f,
+                "line {line}: the idle step reads {thrust_g:.3} g (a tare offset at idle?)"
+            ),
+            Self::NegativePastIdle {
+                line,
+                thrust_g,
+                idle_g,
+            } => write!(
+                f,
+                "line {line}: a step past idle reads {thrust_g:.3} g, below the idle step's {idle_g:.3} g, which a tare offset cannot explain: a glitch or an outlier? (kept as logged: check or remove the row)"
+            ),
+            Self::OffTheRamp {
+                line,
+                thrust_g,
+                before_g,
+                after_g,
+            } => write!(
+                f,
+                "line {line}: a step on the throttle ramp reads {thrust_g:.3} g between steps of {before_g:.3} g and {after_g:.3} g: a glitch or an outlier? (kept as logged: check or remove the row)"
+            ),
+        }
+    }
 }
 
 /// Writes steps as a hoverbench sweep CSV (the format `hoverbench fit` reads by default), with a
@@ -758,6 +947,79 @@ mod tests {
         );
         assert!((steps[1].power_w.unwrap() - 72.0).abs() < 1e-9);
         assert_eq!(steps[1].throttle, Some(1300.0));
+    }
+
+    fn sweep_with(thrust: &[(f64, f64)]) -> StandLog {
+        let mut csv = String::from("# a sweep\nthrottle,thrust_g,power_w\n");
+        for (t, g) in thrust {
+            csv.push_str(&format!("{t},{g},{}\n", 1.0 + g.abs()));
+        }
+        StandLog::parse(csv.into_bytes(), "s.csv", &StandOptions::default()).unwrap()
+    }
+
+    #[test]
+    fn a_negative_idle_step_is_a_tare_offset_and_a_negative_step_past_idle_a_glitch() {
+        let ramp = |f: &dyn Fn(usize, f64) -> f64| -> Vec<(f64, f64)> {
+            (0..10)
+                .map(|i| (0.1 * i as f64, f(i, 30.0 * i as f64)))
+                .collect()
+        };
+        // a clean ramp: nothing
+        assert!(sweep_with(&ramp(&|_, g| g)).thrust_oddities().is_empty());
+        // every step 3 g low: the idle step (line 3, after a comment and the header) is a tare
+        // offset, the rest follow it
+        let o = sweep_with(&ramp(&|_, g| g - 3.0)).thrust_oddities();
+        assert_eq!(
+            o,
+            [ThrustOddity::TareOffset {
+                line: 3,
+                thrust_g: -3.0
+            }]
+        );
+        assert!(o[0].to_string().contains("tare offset at idle"), "{}", o[0]);
+        // the third step reads -20 g with idle at 0: a glitch, named by its line
+        let o = sweep_with(&ramp(&|i, g| if i == 2 { -20.0 } else { g })).thrust_oddities();
+        assert_eq!(
+            o,
+            [ThrustOddity::NegativePastIdle {
+                line: 5,
+                thrust_g: -20.0,
+                idle_g: 0.0
+            }]
+        );
+        assert!(
+            !o[0].to_string().contains("tare offset at idle"),
+            "{}",
+            o[0]
+        );
+        assert!(o[0].to_string().contains("line 5"), "{}", o[0]);
+        // a positive drop mid-ramp; noise within 10 % of the top is not one
+        let o = sweep_with(&ramp(&|i, g| if i == 6 { 20.0 } else { g })).thrust_oddities();
+        assert_eq!(o.len(), 1);
+        assert!(
+            matches!(o[0], ThrustOddity::OffTheRamp { line: 9, .. }),
+            "{o:?}"
+        );
+        let noisy = sweep_with(&ramp(&|i, g| g + if i % 2 == 0 { 9.0 } else { -9.0 }));
+        assert!(
+            noisy.thrust_oddities().is_empty(),
+            "{:?}",
+            noisy.thrust_oddities()
+        );
+        // readings near 0 g below the motor's start-up, some negative: noise, not a glitch
+        let start_up = ramp(&|i, g| match i {
+            1 => -2.0,
+            2 => -2.5,
+            3 => -1.8,
+            _ => g,
+        });
+        assert!(sweep_with(&start_up).thrust_oddities().is_empty());
+        // an idle step read twice (up and down): the lower of them is the one named
+        let mut up_down = ramp(&|_, g| g - 2.0);
+        up_down.push((0.0, -4.0));
+        let o = sweep_with(&up_down).thrust_oddities();
+        assert_eq!(o.len(), 1);
+        assert_eq!((o[0].line(), o[0].thrust_g()), (13, -4.0));
     }
 
     #[test]

@@ -38,14 +38,22 @@ pub struct Args {
     output: Option<PathBuf>,
 }
 
-fn read(paths: &[PathBuf], stand: &StandArgs) -> Result<Vec<StandSweep>> {
+/// The runs of the logs, and a note per thrust reading worth a look (a tare offset, a glitch:
+/// `StandLog::thrust_oddities`, as `fit` says them; the steps are kept as logged).
+fn read(paths: &[PathBuf], stand: &StandArgs) -> Result<(Vec<StandSweep>, Vec<String>)> {
     let opts = stand.options();
     let mut out = Vec::new();
+    let mut notes = Vec::new();
     for p in paths {
         let log = StandLog::read(p, &opts)?;
+        notes.extend(
+            log.thrust_oddities()
+                .iter()
+                .map(|o| format!("{}, {o}", log.source_name)),
+        );
         out.extend(runs_of_log(&log).with_context(|| format!("reading {}", p.display()))?);
     }
-    Ok(out)
+    Ok((out, notes))
 }
 
 #[derive(serde::Serialize)]
@@ -186,8 +194,9 @@ fn text(d: &Diagnosis, rule: &str) -> String {
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> Result<()> {
-    let train = read(&args.sweeps, &args.stand)?;
-    let held = read(&args.holdout, &args.stand)?;
+    let (train, mut log_notes) = read(&args.sweeps, &args.stand)?;
+    let (held, held_notes) = read(&args.holdout, &args.stand)?;
+    log_notes.extend(held_notes);
     let (train, held, rule) = if held.is_empty() {
         split_default(train)
     } else {
@@ -203,7 +212,10 @@ pub fn run(args: Args) -> Result<()> {
         })?;
         opts.fixed = preset.fixed;
     }
-    let d = diagnose(&train, &held, &opts)?;
+    let mut d = diagnose(&train, &held, &opts)?;
+    // the logs' own notes first, then the diagnosis's
+    log_notes.append(&mut d.notes);
+    d.notes = log_notes;
     if let Some(target) = &args.output {
         // built aside and renamed into place whole (outfile::StagedDir)
         let staged = outfile::StagedDir::owning(target, |n| n.starts_with("rig-gap"))?;
