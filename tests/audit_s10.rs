@@ -195,3 +195,87 @@ fn a_negative_thrust_mid_sweep_is_named_by_its_line_as_a_glitch_by_fit_and_rig_g
     );
     assert!(!err.contains("glitch"), "{err}");
 }
+
+#[test]
+fn replay_says_which_cell_voltages_the_px4_baseline_used_and_export_px4_writes_the_same() {
+    let d = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(REPLAY_PARAMS).unwrap();
+    // learned without --chemistry: the prior that fitted best, LiHV
+    assert!(text.contains("chemistry = \"lihv\""), "{text}");
+    let flight = "tests/data/replay/flights/9-hover-A.csv";
+    let px4_at_half = |params: &str| -> (Value, f64) {
+        let v = common::json(&["replay", "--params", params, flight, "--json"]);
+        let p = v["flights"][0]["checkpoints"][1]["baselines"]["px4"]
+            .as_f64()
+            .unwrap();
+        (v["px4_battery"].clone(), p)
+    };
+    // LiHV: PX4's defaults, which a PX4 set up for LiHV keeps.
+    let (lihv, lihv_s) = px4_at_half(REPLAY_PARAMS);
+    assert_eq!(lihv["v_empty_cell_v"], 3.6);
+    assert_eq!(lihv["v_charged_cell_v"], 4.05);
+    assert_eq!(lihv["chemistry"], "lihv");
+    let out = common::ok(&["replay", "--params", REPLAY_PARAMS, flight]);
+    assert!(
+        out.starts_with("px4 baseline: BAT1_V_EMPTY 3.60 V, BAT1_V_CHARGED 4.05 V per cell (PX4 set up for lihv cells"),
+        "{out}"
+    );
+    // The same section said to be LiFePO4: PX4 set up for LiFePO4, with the values
+    // `export px4 --chemistry lifepo4` writes; a section of unknown chemistry: PX4's defaults.
+    let export = common::ok(&[
+        "export",
+        "px4",
+        "--sweep",
+        &data("paper-sweep.csv"),
+        "--cells",
+        "3",
+        "--capacity",
+        "2100",
+        "--chemistry",
+        "lifepo4",
+    ]);
+    let value = |name: &str| -> f64 {
+        let row = export
+            .lines()
+            .find(|l| l.contains(&format!("\t{name}\t")))
+            .unwrap();
+        row.split('\t').nth(3).unwrap().parse().unwrap()
+    };
+    for (chemistry, said) in [("lifepo4", "lifepo4"), ("other", "")] {
+        let p = d.path().join(format!("{chemistry}.toml"));
+        std::fs::write(
+            &p,
+            text.replace(
+                "chemistry = \"lihv\"",
+                &format!("chemistry = \"{chemistry}\""),
+            ),
+        )
+        .unwrap();
+        let (px4, s) = px4_at_half(p.to_str().unwrap());
+        if said.is_empty() {
+            assert_eq!(
+                px4,
+                lihv.as_object()
+                    .map(|o| {
+                        let mut o = o.clone();
+                        o.insert("chemistry".into(), Value::Null);
+                        Value::Object(o)
+                    })
+                    .unwrap()
+            );
+            assert_eq!(s, lihv_s);
+        } else {
+            assert_eq!(px4["chemistry"], said);
+            assert_eq!(
+                px4["v_empty_cell_v"].as_f64().unwrap(),
+                value("BAT1_V_EMPTY")
+            );
+            assert_eq!(
+                px4["v_charged_cell_v"].as_f64().unwrap(),
+                value("BAT1_V_CHARGED")
+            );
+            // lower cell voltages than this LiHV pack's: the voltage-based charge reads fuller
+            assert!(s > lihv_s, "{s} vs {lihv_s}");
+        }
+    }
+}

@@ -321,6 +321,54 @@ pub struct BatterySpec {
     pub full_cell_v: f64,
     /// Internal resistance of the pack, Ω, when it has been estimated.
     pub internal_resistance_ohm: Option<f64>,
+    /// The chemistry whose [`px4_cell_voltages`] the empty and full voltages are, when they
+    /// are (said in the parameter file's comments).
+    pub voltages_of: Option<Chemistry>,
+}
+
+pub use estimator::online::Chemistry;
+
+/// PX4's per-cell battery voltages: `BAT1_V_EMPTY` and `BAT1_V_CHARGED`, which PX4 reads under
+/// load (its parameter docs: "5C load") and, with its internal-resistance estimate, compares
+/// with the load-compensated cell voltage to get a voltage-based state of charge.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Px4CellVoltages {
+    /// `BAT1_V_EMPTY`, V per cell.
+    pub empty_cell_v: f64,
+    /// `BAT1_V_CHARGED`, V per cell.
+    pub charged_cell_v: f64,
+}
+
+/// PX4's defaults (PX4-Autopilot `src/lib/battery/module.yaml`: `BAT${i}_V_EMPTY` 3.6 V,
+/// `BAT${i}_V_CHARGED` 4.05 V), made for lithium cells charged to 4.2 V.
+pub const PX4_DEFAULT_CELL_VOLTAGES: Px4CellVoltages = Px4CellVoltages {
+    empty_cell_v: 3.6,
+    charged_cell_v: 4.05,
+};
+
+/// `BAT1_V_EMPTY` / `BAT1_V_CHARGED` of a PX4 configured for a pack of `chemistry`
+/// (`hoverbench export px4 --chemistry` writes them); `None` when the chemistry says nothing
+/// about its voltages (`measured`, `other`).
+///
+/// - LiPo, LiHV, Li-ion NMC and NCA: PX4's defaults, [`PX4_DEFAULT_CELL_VOLTAGES`] (PX4 ships
+///   them for these cells; LiHV is left at them too, although its 4.35 V charge would allow a
+///   higher `V_CHARGED`).
+/// - LiFePO₄: 3.0 V empty, 3.35 V charged. Its open-circuit voltage sits on a plateau near
+///   3.3 V (about 3.33–3.35 V at 90 % charge, 3.2 V at 10 %) and falls to about 3.0 V near 5 %;
+///   PX4's defaults (3.6 / 4.05 V) put a LiFePO₄ cell below "empty" from take-off. The two
+///   values are placed as PX4's defaults are on a LiPo curve (4.05 V: about 90 % charge;
+///   3.6 V: about 5 %), from published LiFePO₄ curves, not fitted to any flight.
+pub fn px4_cell_voltages(chemistry: Chemistry) -> Option<Px4CellVoltages> {
+    match chemistry {
+        Chemistry::Lipo | Chemistry::Lihv | Chemistry::LiIonNmc | Chemistry::LiIonNca => {
+            Some(PX4_DEFAULT_CELL_VOLTAGES)
+        }
+        Chemistry::LiFePo4 => Some(Px4CellVoltages {
+            empty_cell_v: 3.0,
+            charged_cell_v: 3.35,
+        }),
+        Chemistry::Measured | Chemistry::Other => None,
+    }
 }
 
 /// One parameter: name, value, MAVLink type, and where it came from.
@@ -469,18 +517,32 @@ fn battery_params(
         mav_type: MAV_REAL32,
         source: "battery description (--capacity)".into(),
     });
+    let of = |what: &str| {
+        format!(
+            "PX4's per-cell {what} voltage for {} cells (--chemistry)",
+            b.voltages_of.map_or("", |c| c.name())
+        )
+    };
     p.push(Param {
         name: empty,
         value: b.empty_cell_v,
         mav_type: MAV_REAL32,
-        source: "per-cell landing voltage (the paper's 3.0 V/cell cut-off unless --empty-cell-v)"
-            .into(),
+        source: match b.voltages_of {
+            Some(_) => of("empty"),
+            None => {
+                "per-cell landing voltage (the paper's 3.0 V/cell cut-off unless --empty-cell-v)"
+                    .into()
+            }
+        },
     });
     p.push(Param {
         name: full,
         value: b.full_cell_v,
         mav_type: MAV_REAL32,
-        source: "per-cell full-charge voltage".into(),
+        source: match b.voltages_of {
+            Some(_) => of("full-charge"),
+            None => "per-cell full-charge voltage".into(),
+        },
     });
     if let Some(ohm) = b.internal_resistance_ohm {
         p.push(Param {
@@ -823,6 +885,7 @@ mod tests {
                 empty_cell_v: 3.0,
                 full_cell_v: 4.2,
                 internal_resistance_ohm: None,
+                voltages_of: None,
             }),
         }
     }
@@ -830,6 +893,41 @@ mod tests {
     #[test]
     fn px4_file_format() {
         insta::assert_snapshot!(Px4Params::new(&input()).unwrap().render());
+    }
+
+    #[test]
+    fn px4_cell_voltages_keep_px4_defaults_for_lithium_oxide_cells_and_move_for_lifepo4() {
+        for c in [
+            Chemistry::Lipo,
+            Chemistry::Lihv,
+            Chemistry::LiIonNmc,
+            Chemistry::LiIonNca,
+        ] {
+            assert_eq!(
+                px4_cell_voltages(c),
+                Some(PX4_DEFAULT_CELL_VOLTAGES),
+                "{c:?}"
+            );
+        }
+        assert_eq!(px4_cell_voltages(Chemistry::Measured), None);
+        assert_eq!(px4_cell_voltages(Chemistry::Other), None);
+        // LiFePO4: both below PX4's empty 3.6 V (its whole plateau is), empty below charged
+        let lfp = px4_cell_voltages(Chemistry::LiFePo4).unwrap();
+        assert!(lfp.empty_cell_v < lfp.charged_cell_v);
+        assert!(lfp.charged_cell_v < PX4_DEFAULT_CELL_VOLTAGES.empty_cell_v);
+        // written with where they came from
+        let mut i = input();
+        let b = i.battery.as_mut().unwrap();
+        b.empty_cell_v = lfp.empty_cell_v;
+        b.full_cell_v = lfp.charged_cell_v;
+        b.voltages_of = Some(Chemistry::LiFePo4);
+        let text = Px4Params::new(&i).unwrap().render();
+        assert!(
+            text.contains(
+                "# BAT1_V_EMPTY: PX4's per-cell empty voltage for lifepo4 cells (--chemistry)\n1\t1\tBAT1_V_EMPTY\t3.000000\t9"
+            ),
+            "{text}"
+        );
     }
 
     #[test]

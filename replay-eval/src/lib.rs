@@ -489,9 +489,11 @@ pub fn replay_scenario(prepared: &PreparedScenario, config: &OnlineConfig) -> Sc
             config.cutoff_curve_sigma_cell_v = config.cutoff_curve_sigma_cell_v.max(*s);
         }
         let online = FileOnline::new(prepared.online_params(), *battery, config);
+        // PX4 set up for the chemistry of the pack's learned section
         let rc = ReplayConfig {
             params: prepared.params,
             online: Some(&online),
+            chemistry: Some(battery.chemistry),
         };
         match replay::replay_flight(flight, &rc) {
             Ok(r) => flights.push(r),

@@ -98,15 +98,24 @@ pub struct ReplayConfig<'a> {
     pub params: Params,
     /// The online estimator, when it runs.
     pub online: Option<&'a dyn OnlineBuilder>,
+    /// The pack's chemistry, for the PX4 baseline's cell voltages
+    /// ([`methods::Px4Battery::of`]; `None`: PX4's defaults).
+    pub chemistry: Option<estimator::online::Chemistry>,
 }
 
 impl ReplayConfig<'_> {
-    /// Only the baselines (no online estimator).
+    /// Only the baselines (no online estimator), PX4 with its defaults.
     pub fn baselines_only(params: Params) -> Self {
         Self {
             params,
             online: None,
+            chemistry: None,
         }
+    }
+
+    /// The cell voltages the PX4 baseline runs with.
+    pub fn px4_battery(&self) -> methods::Px4Battery {
+        methods::Px4Battery::of(self.chemistry)
     }
 }
 
@@ -145,7 +154,7 @@ pub fn replay_flight(flight: &Flight, config: &ReplayConfig<'_>) -> Result<Fligh
         }
         (Some(c), Some(ah)) => {
             baselines[0] = Some(Box::new(methods::Px4TimeRemaining::new(
-                methods::Px4Params::defaults(c, ah * 1000.0),
+                methods::Px4Params::configured(c, ah * 1000.0, &config.px4_battery()),
             )));
             baselines[1] = Some(Box::new(methods::CoulombCounter::new(ah)));
         }

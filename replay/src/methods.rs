@@ -1,6 +1,7 @@
 //! The estimators replayed: the trait they share, what a flight's metadata tells them, and the
 //! baselines (PX4's `time_remaining_s`, a rated-capacity coulomb counter, the static model).
 
+use estimator::online::Chemistry;
 use estimator::{Battery, MissionOptions, Params, Payload, Segment};
 use flightlog::{Flight, Phase};
 use serde::Serialize;
@@ -215,13 +216,67 @@ pub struct Px4Params {
 impl Px4Params {
     /// PX4's defaults with the flight's cells and rated capacity.
     pub fn defaults(cells: u32, capacity_mah: f64) -> Self {
+        Self::configured(cells, capacity_mah, &Px4Battery::of(None))
+    }
+
+    /// PX4's defaults with the flight's cells and rated capacity, and the cell voltages a PX4
+    /// configured for the pack has ([`Px4Battery::of`]).
+    pub fn configured(cells: u32, capacity_mah: f64, battery: &Px4Battery) -> Self {
         Self {
             n_cells: cells,
             capacity_mah,
-            v_empty: 3.6,
-            v_charged: 4.05,
+            v_empty: battery.v_empty_cell_v,
+            v_charged: battery.v_charged_cell_v,
             r_internal: None,
             avrg_current_a: 15.0,
+        }
+    }
+}
+
+/// The cell voltages the PX4 baseline runs with: those a PX4 configured for the pack's
+/// chemistry has (`autopilot::px4_cell_voltages`, the values `hoverbench export px4
+/// --chemistry` writes), else PX4's defaults.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Px4Battery {
+    /// `BAT1_V_EMPTY`, V per cell.
+    pub v_empty_cell_v: f64,
+    /// `BAT1_V_CHARGED`, V per cell.
+    pub v_charged_cell_v: f64,
+    /// The chemistry they are for; `None`: PX4's defaults, the chemistry unknown.
+    pub chemistry: Option<&'static str>,
+}
+
+impl Px4Battery {
+    /// For a pack of `chemistry` (`None`, `measured` or `other`: PX4's defaults).
+    pub fn of(chemistry: Option<Chemistry>) -> Self {
+        match chemistry.and_then(|c| autopilot::px4_cell_voltages(c).map(|v| (c, v))) {
+            Some((c, v)) => Self {
+                v_empty_cell_v: v.empty_cell_v,
+                v_charged_cell_v: v.charged_cell_v,
+                chemistry: Some(c.name()),
+            },
+            None => Self {
+                v_empty_cell_v: autopilot::PX4_DEFAULT_CELL_VOLTAGES.empty_cell_v,
+                v_charged_cell_v: autopilot::PX4_DEFAULT_CELL_VOLTAGES.charged_cell_v,
+                chemistry: None,
+            },
+        }
+    }
+}
+
+impl std::fmt::Display for Px4Battery {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "px4 baseline: BAT1_V_EMPTY {:.2} V, BAT1_V_CHARGED {:.2} V per cell",
+            self.v_empty_cell_v, self.v_charged_cell_v
+        )?;
+        match self.chemistry {
+            Some(c) => write!(
+                f,
+                " (PX4 set up for {c} cells, as `hoverbench export px4 --chemistry {c}` writes)"
+            ),
+            None => write!(f, " (PX4's defaults: the pack's chemistry is not known)"),
         }
     }
 }

@@ -22,7 +22,7 @@ pub struct Args {
 #[derive(Debug, clap::Subcommand)]
 enum Target {
     /// PX4 (QGroundControl .params): THR_MDL_FAC, MPC_THR_HOVER, BAT1_*.
-    Px4(FlightArgs),
+    Px4(Px4Args),
     /// ArduPilot (.param): MOT_THST_EXPO, MOT_SPIN_MIN/MAX, MOT_THST_HOVER, BATT_*, MOT_BAT_VOLT_*.
     Ardupilot(ArduArgs),
     /// A C header with the estimator's parameters (curve constants, evaluator, binary blob).
@@ -66,6 +66,28 @@ struct FlightArgs {
     /// Write the file here (otherwise print it).
     #[arg(short, long, value_name = "FILE")]
     output: Option<PathBuf>,
+}
+
+#[derive(Debug, clap::Args)]
+struct Px4Args {
+    #[command(flatten)]
+    flight: FlightArgs,
+    /// The cells' chemistry (lipo, lihv, li_ion_nmc, li_ion_nca, lifepo4): BAT1_V_EMPTY and
+    /// BAT1_V_CHARGED as PX4 wants them for it (under load; lipo and li-ion: PX4's defaults
+    /// 3.6 / 4.05 V, lifepo4: 3.0 / 3.35 V) instead of --empty-cell-v / --full-cell-v. With
+    /// --cells and --capacity.
+    #[arg(long, value_name = "NAME", value_parser = parse_chemistry, conflicts_with_all = ["empty_cell_v", "full_cell_v"])]
+    chemistry: Option<autopilot::Chemistry>,
+}
+
+fn parse_chemistry(s: &str) -> Result<autopilot::Chemistry, String> {
+    autopilot::Chemistry::from_name(s)
+        .filter(|c| autopilot::px4_cell_voltages(*c).is_some())
+        .ok_or_else(|| {
+            format!(
+                "{s:?} is not one of lipo, lihv, li_ion_nmc, li_ion_nca, lifepo4 (for other cells give --empty-cell-v and --full-cell-v)"
+            )
+        })
 }
 
 #[derive(Debug, clap::Args)]
@@ -114,13 +136,17 @@ struct Sweep {
     voltage_v: Option<f64>,
 }
 
-fn input(a: &FlightArgs, expo: autopilot::ExpoFit) -> Result<ExportInput> {
+fn input(
+    a: &FlightArgs,
+    chemistry: Option<autopilot::Chemistry>,
+    expo: autopilot::ExpoFit,
+) -> Result<ExportInput> {
     Ok(ExportInput {
         expo,
         sweep_name: a.sweep.display().to_string(),
         takeoff_mass_kg: a.takeoff_mass,
         rotors: a.rotors,
-        battery: battery(a)?,
+        battery: battery(a, chemistry)?,
     })
 }
 
@@ -162,11 +188,14 @@ const DEFAULT_EMPTY_CELL_V: f64 = 3.0;
 /// Full voltage per cell without --full-cell-v, V.
 const DEFAULT_FULL_CELL_V: f64 = 4.2;
 
-fn battery(a: &FlightArgs) -> Result<Option<BatterySpec>> {
+/// The battery of `--cells`/`--capacity`; `chemistry` (PX4's `--chemistry`, which clap keeps
+/// apart from `--empty-cell-v`/`--full-cell-v`) sets both voltages.
+fn battery(a: &FlightArgs, chemistry: Option<autopilot::Chemistry>) -> Result<Option<BatterySpec>> {
     let (Some(cells), Some(capacity_mah)) = (a.cells, a.capacity) else {
         // clap makes --cells and --capacity come together; the flags below act only on the
         // battery parameters they write, so alone they would be ignored.
         let given = [
+            ("--chemistry", chemistry.is_some()),
             ("--empty-cell-v", a.empty_cell_v.is_some()),
             ("--full-cell-v", a.full_cell_v.is_some()),
             ("--internal-resistance", a.internal_resistance.is_some()),
@@ -181,8 +210,15 @@ fn battery(a: &FlightArgs) -> Result<Option<BatterySpec>> {
     if !(capacity_mah.is_finite() && capacity_mah > 0.0) {
         bail!("--capacity must be a positive number of mAh, got {capacity_mah}");
     }
-    let empty_cell_v = a.empty_cell_v.unwrap_or(DEFAULT_EMPTY_CELL_V);
-    let full_cell_v = a.full_cell_v.unwrap_or(DEFAULT_FULL_CELL_V);
+    let px4 = chemistry.and_then(autopilot::px4_cell_voltages);
+    let empty_cell_v = a
+        .empty_cell_v
+        .or(px4.map(|v| v.empty_cell_v))
+        .unwrap_or(DEFAULT_EMPTY_CELL_V);
+    let full_cell_v = a
+        .full_cell_v
+        .or(px4.map(|v| v.charged_cell_v))
+        .unwrap_or(DEFAULT_FULL_CELL_V);
     if !(empty_cell_v.is_finite() && empty_cell_v > 0.0) {
         bail!("--empty-cell-v must be a positive voltage per cell, got {empty_cell_v}");
     }
@@ -216,18 +252,22 @@ fn battery(a: &FlightArgs) -> Result<Option<BatterySpec>> {
         empty_cell_v,
         full_cell_v,
         internal_resistance_ohm: a.internal_resistance,
+        voltages_of: px4.and(chemistry),
     }))
 }
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> Result<()> {
     match args.target {
-        Target::Px4(a) => {
+        Target::Px4(Px4Args {
+            flight: a,
+            chemistry,
+        }) => {
             let s = sweep(&a.sweep, &a)?;
             let expo = fit_thrust_expo(&s.command, &s.thrust_g)
                 .with_context(|| format!("fitting THR_MDL_FAC to {}", a.sweep.display()))?;
             emit(
-                &Px4Params::new(&input(&a, expo)?)?.render(),
+                &Px4Params::new(&input(&a, chemistry, expo)?)?.render(),
                 a.output.as_ref(),
                 std::slice::from_ref(&a.sweep),
             )
@@ -250,7 +290,7 @@ pub fn run(args: Args) -> Result<()> {
                 fit_thrust_expo(&actuator(&main), &main.thrust_g)
                     .with_context(|| format!("fitting MOT_THST_EXPO to {}", a.sweep.display()))?
             } else {
-                let b = battery(a)?.with_context(|| {
+                let b = battery(a, None)?.with_context(|| {
                     "--also-sweep fits through ArduPilot's voltage scaling: give --cells and --capacity".to_owned()
                 })?;
                 let v_max = f64::from(b.cells) * b.full_cell_v;
@@ -276,7 +316,7 @@ pub fn run(args: Args) -> Result<()> {
                 autopilot::fit_expo_with_voltage_scaling(&sweeps, v_max)
                     .context("fitting MOT_THST_EXPO across the sweeps' voltages")?
             };
-            let mut input = input(a, expo)?;
+            let mut input = input(a, None, expo)?;
             if !ar.also.is_empty() {
                 let names: Vec<String> = std::iter::once(&a.sweep)
                     .chain(&ar.also)

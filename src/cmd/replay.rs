@@ -7,6 +7,7 @@ use anyhow::{Context, Result};
 use estimator::file::ParamsFile;
 use flightlog::FlightSet;
 use flightlog::summary::error_chain;
+use replay::methods::Px4Battery;
 use replay::{FlightReplay, Replay, ReplayConfig, SkippedFlight};
 use reports::replay::{ReplayErrorFigure, ReplayFlightFigure, ReplayMethodSeries};
 
@@ -55,10 +56,17 @@ pub fn run(args: Args) -> Result<()> {
         })
         .collect();
     let online = replay::online_from_file(&file);
+    // PX4 set up for the pack: the chemistry of the [battery] section (PX4's defaults without)
+    let chemistry = file
+        .battery
+        .as_ref()
+        .and_then(|b| estimator::online::Chemistry::from_name(&b.chemistry));
     let config = ReplayConfig {
         params,
         online: online.as_ref().ok().map(|o| o.as_ref()),
+        chemistry,
     };
+    let px4 = config.px4_battery();
     let bar = indicatif::ProgressBar::new(set.flights.len() as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} flights, {elapsed}")
@@ -78,12 +86,12 @@ pub fn run(args: Args) -> Result<()> {
         }
     }
     if let Some(dir) = &args.out {
-        write_folder(&r, dir)?;
+        write_folder(&r, &px4, dir)?;
     }
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&r.to_json())?);
+        println!("{}", serde_json::to_string_pretty(&json(&r, &px4)?)?);
     } else {
-        print!("{}", r.to_text());
+        print!("{}", text(&r, &px4));
         if let Some(dir) = &args.out {
             println!("wrote {}", dir.display());
         }
@@ -109,6 +117,21 @@ fn nothing_scored(r: &Replay) -> anyhow::Error {
     }
 }
 
+/// The JSON document: the replay's, with `px4_battery` (the cell voltages the PX4 baseline ran
+/// with).
+fn json(r: &Replay, px4: &Px4Battery) -> Result<serde_json::Value> {
+    let mut v = r.to_json();
+    if let Some(o) = v.as_object_mut() {
+        o.insert("px4_battery".to_owned(), serde_json::to_value(px4)?);
+    }
+    Ok(v)
+}
+
+/// The text: which cell voltages the PX4 baseline ran with, then the replay's table.
+fn text(r: &Replay, px4: &Px4Battery) -> String {
+    format!("{px4}\n{}", r.to_text())
+}
+
 fn flight_figure(f: &FlightReplay) -> ReplayFlightFigure {
     ReplayFlightFigure {
         name: f.name.clone(),
@@ -127,7 +150,7 @@ fn flight_figure(f: &FlightReplay) -> ReplayFlightFigure {
     }
 }
 
-fn write_folder(r: &Replay, dir: &std::path::Path) -> Result<()> {
+fn write_folder(r: &Replay, px4: &Px4Battery, dir: &std::path::Path) -> Result<()> {
     // every file it writes is named replay*: an earlier run's folder is replaced whole, a
     // folder holding anything else is refused
     let staged = outfile::StagedDir::owning(dir, |n| n.starts_with("replay"))?;
@@ -152,10 +175,10 @@ fn write_folder(r: &Replay, dir: &std::path::Path) -> Result<()> {
     reports::replay::write_replay_figures(&flights, &summary, staged.path())?;
     outfile::write_atomic(
         &staged.path().join("replay.json"),
-        serde_json::to_string_pretty(&r.to_json())?.as_bytes(),
+        serde_json::to_string_pretty(&json(r, px4)?)?.as_bytes(),
     )?;
     outfile::write_atomic(&staged.path().join("replay.csv"), r.to_csv().as_bytes())?;
-    outfile::write_atomic(&staged.path().join("replay.txt"), r.to_text().as_bytes())?;
+    outfile::write_atomic(&staged.path().join("replay.txt"), text(r, px4).as_bytes())?;
     staged.commit()?;
     Ok(())
 }
