@@ -279,3 +279,29 @@ fn replay_says_which_cell_voltages_the_px4_baseline_used_and_export_px4_writes_t
         }
     }
 }
+
+#[test]
+fn rig_gap_marks_the_parameters_its_sweeps_cannot_identify() {
+    let day1 = shared_path("rcbenchmark/StepsTest_2020-05-22_102946.csv");
+    let day2 = shared_path("rcbenchmark/StepsTest_2020-05-23_154840.csv");
+    let (a, b) = (day1.to_str().unwrap(), day2.to_str().unwrap());
+    let v = common::json(&["rig-gap", a, b, "--json"]);
+    let params = v["baseline"]["parameters"].as_object().unwrap();
+    for (name, p) in params {
+        let (value, se) = (p["value"].as_f64().unwrap(), p["std_error"].as_f64());
+        let identified = se.is_some_and(|se| se <= value.abs());
+        assert_eq!(p["identified"], identified, "{name}: {p}");
+    }
+    // Kv: 1882.7 ± 5255.7 rpm/V on this pair; the thrust coefficient is pinned down.
+    assert_eq!(params["kv_rpm_per_v"]["identified"], false);
+    assert_eq!(params["thrust_coeff_g_per_krpm2"]["identified"], true);
+    let out = common::ok(&["rig-gap", a, b]);
+    let row = out.lines().find(|l| l.starts_with("kv_rpm_per_v")).unwrap();
+    assert!(row.ends_with("(not identified)"), "{row}");
+    let line = out
+        .lines()
+        .find(|l| l.starts_with("not identified by this data: "))
+        .unwrap();
+    assert!(line.contains("kv_rpm_per_v"), "{line}");
+    assert!(!line.contains("thrust_coeff"), "{line}");
+}

@@ -70,13 +70,33 @@ impl Default for Options {
     }
 }
 
-/// A parameter's value and standard error.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+/// A parameter's value and standard error; serialised as `{value, std_error, identified}`.
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Estimate {
     /// Value.
     pub value: f64,
     /// Standard error (infinite when the data cannot determine it, 0 at a bound).
     pub std_error: f64,
+}
+
+impl Estimate {
+    /// Whether the data determine it: a finite standard error no larger than the value's
+    /// magnitude. Otherwise the fit is nearly flat in it, and the other parameters can take
+    /// up what it would explain.
+    pub fn identified(&self) -> bool {
+        self.std_error.is_finite() && self.std_error <= self.value.abs()
+    }
+}
+
+impl Serialize for Estimate {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct as _;
+        let mut st = serializer.serialize_struct("Estimate", 3)?;
+        st.serialize_field("value", &self.value)?;
+        st.serialize_field("std_error", &self.std_error)?;
+        st.serialize_field("identified", &self.identified())?;
+        st.end()
+    }
 }
 
 /// A fitted model and its errors.
@@ -1089,5 +1109,24 @@ impl Diagnosis {
             self.baseline.heldout_error_pct[key],
             self.after.heldout_error_pct[key],
         ))
+    }
+}
+
+#[cfg(test)]
+mod estimate_tests {
+    use super::Estimate;
+
+    #[test]
+    fn an_estimate_is_identified_when_its_error_is_within_its_value() {
+        let e = |value, std_error| Estimate { value, std_error };
+        assert!(e(0.14, 0.02).identified());
+        assert!(e(-0.5, 0.5).identified());
+        assert!(e(1.0, 0.0).identified());
+        assert!(!e(1882.7, 5255.7).identified());
+        assert!(!e(0.05, f64::INFINITY).identified());
+        assert!(!e(0.0, 1e-9).identified());
+        let v = serde_json::to_value(e(1882.7, 5255.7)).unwrap();
+        assert_eq!(v["identified"], false);
+        assert_eq!(v["value"], 1882.7);
     }
 }

@@ -119,6 +119,17 @@ fn where_table(w: &[QuantityWhere]) -> String {
     t.render()
 }
 
+/// A standard error, marked when it exceeds the value (`Estimate::identified`).
+fn std_error_cell(v: &rig_gap::diagnose::Estimate, decimals: usize) -> String {
+    if v.identified() {
+        format!("{:.decimals$}", v.std_error)
+    } else if v.std_error.is_finite() {
+        format!("{:.decimals$} (not identified)", v.std_error)
+    } else {
+        "- (not identified)".to_owned()
+    }
+}
+
 fn text(d: &Diagnosis, rule: &str) -> String {
     let mut s = String::new();
     let _ = writeln!(s, "verdict: {}", d.verdict.join(" + "));
@@ -155,7 +166,7 @@ fn text(d: &Diagnosis, rule: &str) -> String {
                     },
                     (*p).to_owned(),
                     format!("{:.4}", v.value),
-                    format!("{:.4}", v.std_error),
+                    std_error_cell(v, 4),
                     if i == 0 {
                         format!("{:.0} %", 100.0 * e.share_of_gap)
                     } else {
@@ -182,10 +193,25 @@ fn text(d: &Diagnosis, rule: &str) -> String {
         t.row(vec![
             (*p).to_owned(),
             format!("{:.5}", v.value),
-            format!("{:.5}", v.std_error),
+            std_error_cell(v, 5),
         ]);
     }
     s.push_str(&t.render());
+    let flat: Vec<&str> = d
+        .baseline
+        .parameters
+        .iter()
+        .chain(d.effects.iter().flat_map(|e| e.parameters.iter()))
+        .filter(|(_, v)| !v.identified())
+        .map(|(p, _)| *p)
+        .collect();
+    if !flat.is_empty() {
+        let _ = writeln!(
+            s,
+            "not identified by this data: {} (standard error above the value: the fit is nearly flat in each, and the other parameters can take up what it would explain; not a measurement)",
+            flat.join(", ")
+        );
+    }
     for n in &d.notes {
         let _ = writeln!(s, "note: {n}");
     }
