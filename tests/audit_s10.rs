@@ -140,17 +140,10 @@ fn export_refuses_battery_flags_without_a_battery_and_an_empty_voltage_above_the
 /// `thrust`; returns the file and the line it is on.
 fn sweep_with_thrust(dir: &std::path::Path, row: usize, thrust: &str) -> (String, usize) {
     let text = std::fs::read_to_string(data("paper-sweep.csv")).unwrap();
-    let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
-    let header = lines.iter().position(|l| !l.starts_with('#')).unwrap();
-    let cols: Vec<&str> = lines[header].split(',').collect();
-    let col = cols.iter().position(|c| *c == "thrust_g").unwrap();
-    let at = header + 1 + row;
-    let mut cells: Vec<String> = lines[at].split(',').map(str::to_owned).collect();
-    cells[col] = thrust.to_owned();
-    lines[at] = cells.join(",");
+    let (text, line) = common::with_cell(&text, row, "thrust_g", thrust);
     let file = dir.join(format!("sweep-{row}.csv"));
-    std::fs::write(&file, lines.join("\n") + "\n").unwrap();
-    (file.to_str().unwrap().to_owned(), at + 1)
+    std::fs::write(&file, text).unwrap();
+    (file.to_str().unwrap().to_owned(), line)
 }
 
 #[test]

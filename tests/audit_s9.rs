@@ -115,19 +115,7 @@ fn a_params_file_names_the_key_it_lacks_or_cannot_use() {
     let p = params.to_str().unwrap();
     common::ok(&["fit", &data("paper-sweep.csv"), "-o", p]);
     let text = std::fs::read_to_string(&params).unwrap();
-    let estimate = [
-        "estimate",
-        "--params",
-        p,
-        "--structure-mass",
-        "431g",
-        "--avionics-power",
-        "2.44",
-        "--battery-mass",
-        "144g",
-        "--energy-density",
-        "164",
-    ];
+    let estimate = [&["estimate", "--params", p][..], &common::BATTERY_A_MISSION].concat();
     // A section left out: said in the file's words, not serde's "missing field".
     let start = text.find("[fit]").unwrap();
     let end = text.find("[provenance]").unwrap();
@@ -160,15 +148,9 @@ fn fit_says_a_tare_offset_once_and_a_descent_in_four_digits() {
     let d = tempfile::tempdir().unwrap();
     let text = std::fs::read_to_string(data("paper-sweep.csv")).unwrap();
     // The first step reads −20 g instead of its thrust.
-    let mut lines: Vec<String> = text.lines().map(str::to_owned).collect();
-    let header = lines.iter().position(|l| !l.starts_with('#')).unwrap();
-    let cols: Vec<&str> = lines[header].split(',').collect();
-    let thrust = cols.iter().position(|c| *c == "thrust_g").unwrap();
-    let mut cells: Vec<String> = lines[header + 1].split(',').map(str::to_owned).collect();
-    cells[thrust] = "-20".to_owned();
-    lines[header + 1] = cells.join(",");
+    let (text, _) = common::with_cell(&text, 0, "thrust_g", "-20");
     let file = d.path().join("sweep.csv");
-    std::fs::write(&file, lines.join("\n") + "\n").unwrap();
+    std::fs::write(&file, text).unwrap();
     let (code, _, err) = outcome(&["fit", file.to_str().unwrap()]);
     assert_eq!(code, 0, "{err}");
     assert_eq!(err.matches("tare offset at idle").count(), 1, "{err}");

@@ -184,9 +184,8 @@ fn a_report_never_replaces_a_folder_of_other_files() {
 fn gap_summary_refuses_bad_counts_and_spreads_with_line_and_column() {
     let d = tempfile::tempdir().unwrap();
     let good = std::fs::read_to_string(data("table-i.csv")).unwrap();
-    let header = good.lines().next().unwrap();
-    let row = good.lines().nth(1).unwrap();
-    let cols: Vec<&str> = header.split(',').collect();
+    // the header and the first mission
+    let good: String = good.lines().take(2).map(|l| format!("{l}\n")).collect();
     for (column, value) in [
         ("samples", "-3"),
         ("samples", "2.5"),
@@ -195,11 +194,9 @@ fn gap_summary_refuses_bad_counts_and_spreads_with_line_and_column() {
         ("measured_std_min", "NaN"),
         ("payload_mass_kg", "-1"),
     ] {
-        let mut cells: Vec<String> = row.split(',').map(str::to_owned).collect();
-        let i = cols.iter().position(|c| *c == column).unwrap();
-        cells[i] = value.to_owned();
+        let (text, _) = common::with_cell(&good, 0, column, value);
         let path = d.path().join("summary.csv");
-        std::fs::write(&path, format!("{header}\n{}\n", cells.join(","))).unwrap();
+        std::fs::write(&path, text).unwrap();
         let o = run(&["gap-summary", path.to_str().unwrap(), "--paper"]);
         assert_eq!(o.status.code(), Some(2), "{column}={value}: {}", stdout(&o));
         let e = stderr(&o);
@@ -252,18 +249,10 @@ fn fit_stores_a_short_centre_and_scale_and_counts_in_words() {
     assert!(range.len() < 40, "{range}");
     // and the curve still evaluates as before: estimate reads it
     ok(&[
-        "estimate",
-        "--params",
-        params.to_str().unwrap(),
-        "--structure-mass",
-        "431g",
-        "--avionics-power",
-        "2.44",
-        "--battery-mass",
-        "144g",
-        "--energy-density",
-        "164",
-    ]);
+        &["estimate", "--params", params.to_str().unwrap()][..],
+        &common::BATTERY_A_MISSION,
+    ]
+    .concat());
 }
 
 // --- item 7: notes go to stderr ----------------------------------------------------------------
@@ -409,20 +398,8 @@ fn an_interrupted_session_counts_the_rig_time_of_every_run() {
     // --- item 6: an empty spread in limit.csv (a step without one) reads as missing, as the
     // importer reads it, when the session is read back
     let limit = std::fs::read_to_string(s.join("limit.csv")).unwrap();
-    let mut lines: Vec<String> = limit.lines().map(str::to_owned).collect();
-    let head = lines
-        .iter()
-        .position(|l| l.starts_with("step,"))
-        .expect("a column header");
-    let col = lines[head]
-        .split(',')
-        .position(|c| c == "thrust_std_g")
-        .unwrap();
-    let row = head + 1;
-    let mut cells: Vec<String> = lines[row].split(',').map(str::to_owned).collect();
-    cells[col].clear();
-    lines[row] = cells.join(",");
-    std::fs::write(s.join("limit.csv"), lines.join("\n") + "\n").unwrap();
+    let (limit, _) = common::with_cell(&limit, 0, "thrust_std_g", "");
+    std::fs::write(s.join("limit.csv"), limit).unwrap();
     let o = resume(&[]);
     assert!(o.status.success(), "{}", stderr(&o));
     let report = d.path().join("r");

@@ -130,3 +130,32 @@ pub fn replace_line(path: &Path, key: &str, line: &str) -> usize {
     std::fs::write(path, new.join("\n") + "\n").unwrap();
     first
 }
+
+/// `csv` with the cell of `column` in data row `row` (0: the first row under the header, the
+/// first line that is not a `#` comment) set to `value`; returns the text and the 1-based line
+/// of that row. Panics when the column or the row is absent.
+pub fn with_cell(csv: &str, row: usize, column: &str, value: &str) -> (String, usize) {
+    let mut lines: Vec<String> = csv.lines().map(str::to_owned).collect();
+    let header = lines.iter().position(|l| !l.starts_with('#')).unwrap();
+    let col = lines[header]
+        .split(',')
+        .position(|c| c == column)
+        .unwrap_or_else(|| panic!("no column {column} in {}", lines[header]));
+    let at = header + 1 + row;
+    let mut cells: Vec<String> = lines[at].split(',').map(str::to_owned).collect();
+    cells[col] = value.to_owned();
+    lines[at] = cells.join(",");
+    (lines.join("\n") + "\n", at + 1)
+}
+
+/// The paper's platform and its Battery A (Table I) as `estimate` flags.
+pub const BATTERY_A_MISSION: [&str; 8] = [
+    "--structure-mass",
+    "431g",
+    "--avionics-power",
+    "2.44",
+    "--battery-mass",
+    "144g",
+    "--energy-density",
+    "164",
+];
