@@ -384,15 +384,18 @@ fn unexplained_says_why_in_text_and_json_alike() {
         "2",
     ]);
     let (train, held) = (out.join("train"), out.join("heldout"));
-    for rule in ["chi2", "systematic"] {
-        let args = [
+    // `None`: the default rule, which is the systematic one.
+    for given in [Some("chi2"), Some("systematic"), None] {
+        let rule = given.unwrap_or("systematic");
+        let mut args = vec![
             "gap",
             train.to_str().unwrap(),
             "--holdout",
             held.to_str().unwrap(),
-            "--unexplained-rule",
-            rule,
         ];
+        if let Some(r) = given {
+            args.extend(["--unexplained-rule", r]);
+        }
         let v = json(&[&args[..], &["--json"]].concat());
         let text = run(&args);
         assert!(text.status.success());

@@ -195,7 +195,7 @@ fn heldout_families_meet_issue_9_targets() {
     assert!(g.median_shrinkage.unwrap_or(1.0) >= 0.8, "{g:?}");
 }
 
-/// The systematic rule for `unexplained` (off by default): a payload that drains in flight,
+/// The systematic rule for `unexplained` (the default since session 10): a payload that drains in flight,
 /// which no library effect represents, leaves a power drift shared by every flight; the same
 /// world without it leaves only the flights' own scatter.
 #[test]

@@ -20,9 +20,10 @@
 //!   halves of the flights, and reports the held-out gap before and after with each effect's
 //!   Shapley share. `none` when the gap is within noise; `unexplained` (with the residual
 //!   named, and why in words with numbers) when a significant gap remains that no candidate
-//!   explains: by default χ² left against fixed noise floors or an unstable effect; with
-//!   [`diagnose::UnexplainedRule::Systematic`], a residual the flights share beyond their own
-//!   scatter ([`systematic`]).
+//!   explains: by default ([`diagnose::UnexplainedRule::Systematic`]) a residual the flights
+//!   share beyond their own scatter ([`systematic`]); with
+//!   [`diagnose::UnexplainedRule::Chi2`], χ² left against fixed noise floors or an unstable
+//!   effect.
 //! - [`logs::run`]: the same with a rig baseline or, for a robot nobody characterised, a hover
 //!   power estimated from the training flights.
 //!

@@ -31,7 +31,7 @@ pub struct Args {
     #[arg(long)]
     json: bool,
     /// The rule that sets the diagnosis's `unexplained` flag (see `hoverbench gap --help`).
-    #[arg(long, value_enum, default_value_t = super::gap::RuleArg::Chi2)]
+    #[arg(long, value_enum, default_value_t = super::gap::RuleArg::Systematic)]
     unexplained_rule: super::gap::RuleArg,
 }
 
