@@ -46,7 +46,7 @@ use serde::Serialize;
 
 pub use mission::{FlightPlan, HALL_CEILING_M, Leg, plans};
 pub use robot::{Propulsion, Robot};
-pub use simulate::{SensorErrors, SimFlight, simulate, simulate_with};
+pub use simulate::{PackTruth, SensorErrors, SimFlight, pack_truth, simulate, simulate_with};
 pub use world::{Chemistry, EffectKind, Family, Logging, NoFamily, RobotVariant, Withheld};
 
 /// A pack as its label says.
@@ -154,7 +154,7 @@ pub fn generate(family: &Family, effect: &Withheld, seed: u64) -> GeneratedSet {
         ps.iter()
             .enumerate()
             .map(|(k, p)| {
-                let s = seed.wrapping_mul(1_000_003).wrapping_add(salt + k as u64);
+                let s = flight_seed(seed, salt, k);
                 let with = simulate(family, &robot, p, effect, s);
                 let without = match effect.kind {
                     EffectKind::None => with.endurance_s,
@@ -192,8 +192,8 @@ pub fn generate(family: &Family, effect: &Withheld, seed: u64) -> GeneratedSet {
             })
             .collect()
     };
-    let train = run(&tp, 0);
-    let heldout = run(&hp, 100);
+    let train = run(&tp, TRAIN_SALT);
+    let heldout = run(&hp, HELDOUT_SALT);
     let (thrust_g, power_w) = robot.rig_sweep(10.0, seed);
     GeneratedSet {
         train,
@@ -213,6 +213,30 @@ pub fn generate(family: &Family, effect: &Withheld, seed: u64) -> GeneratedSet {
             endurance_s,
         },
     }
+}
+
+/// Salts of the training and held-out flights' seeds.
+const TRAIN_SALT: u64 = 0;
+const HELDOUT_SALT: u64 = 100;
+
+/// The seed of the `k`-th flight of a set (`salt`: training or held out) of scenario `seed`.
+fn flight_seed(seed: u64, salt: u64, k: usize) -> u64 {
+    seed.wrapping_mul(1_000_003).wrapping_add(salt + k as u64)
+}
+
+/// The packs [`generate`] flies for a scenario, training flights then held-out ones, in the
+/// order of the set's flights, as the truth knows them ([`PackTruth`]: the curve, the capacity
+/// without any withheld fade, the impedance). For oracle experiments of a study only; never
+/// part of the files.
+pub fn pack_truths(family: &Family, seed: u64) -> (Vec<PackTruth>, Vec<PackTruth>) {
+    let (tp, hp) = plans(family, seed);
+    let of = |ps: &[FlightPlan], salt: u64| -> Vec<PackTruth> {
+        ps.iter()
+            .enumerate()
+            .map(|(k, p)| pack_truth(family, p, flight_seed(seed, salt, k)))
+            .collect()
+    };
+    (of(&tp, TRAIN_SALT), of(&hp, HELDOUT_SALT))
 }
 
 /// Draws a scenario's effect from its seed: `none`, each library-named effect and each outside

@@ -84,6 +84,41 @@ impl Pack {
     }
 }
 
+/// What the pack of one flight truly is: its cells' open-circuit curve, its capacity before any
+/// withheld fade, and its impedance at 25 °C. Never part of the flight files; for oracle
+/// experiments of a study (how much of a diagnosis's error is the battery it had to learn).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PackTruth {
+    /// The pack's own open-circuit curve per cell (its chemistry's curve with its scatter).
+    pub ocv: OcvCurve,
+    /// Cells in series.
+    pub cells: u8,
+    /// Capacity, Ah, without a withheld capacity fade.
+    pub capacity_ah: f64,
+    /// Series resistance of the pack at 25 °C, Ω.
+    pub series_resistance_ohm: f64,
+    /// The pack's two RC pairs: (resistance Ω, time constant s).
+    pub rc: [(f64, f64); 2],
+}
+
+/// The pack that [`simulate`] flies for `plan` with `seed` (the same draws), as the truth knows
+/// it.
+pub fn pack_truth(family: &Family, plan: &FlightPlan, seed: u64) -> PackTruth {
+    let mut pack_rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7061_636b);
+    let spec = crate::pack_spec(family.chemistry, plan.pack);
+    let p = Pack::new(family, &spec, &mut pack_rng, 0.0);
+    PackTruth {
+        cells: family.chemistry.cells(),
+        capacity_ah: p.capacity_ah,
+        series_resistance_ohm: p.r0_ohm * p.cells,
+        rc: [
+            (p.rc[0].0 * p.cells, p.rc[0].1),
+            (p.rc[1].0 * p.cells, p.rc[1].1),
+        ],
+        ocv: p.ocv,
+    }
+}
+
 /// The sensors of one flight: constant errors drawn once.
 struct Sensors {
     v_scale: f64,

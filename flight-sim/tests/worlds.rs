@@ -198,3 +198,35 @@ fn ideal_sensors_change_only_what_they_measure() {
     }
     assert_eq!(SensorErrors::parse("calibrated"), None);
 }
+
+/// The packs `pack_truths` reports are the ones the flights fly: one per flight, in order, and
+/// each flight's first logged voltage (on the ground, sensor errors and all) reads near its own
+/// pack's full curve, not the nominal one's.
+#[test]
+fn pack_truths_are_the_packs_the_flights_fly() {
+    let fam = Family::parse("nmc/lab-1hz/paper").unwrap();
+    for seed in [3, 8] {
+        let set = generate(&fam, &Withheld::NONE, seed);
+        let (tp, hp) = flight_sim::pack_truths(&fam, seed);
+        assert_eq!((tp.len(), hp.len()), (set.train.len(), set.heldout.len()));
+        for (f, p) in set.train.iter().zip(&tp) {
+            let first_v: f64 = f
+                .csv
+                .lines()
+                .nth(1)
+                .unwrap()
+                .split(',')
+                .nth(1)
+                .unwrap()
+                .parse()
+                .unwrap();
+            let full_v = f64::from(p.cells) * p.ocv.at(0.994);
+            assert!(
+                (first_v - full_v).abs() < 0.12,
+                "seed {seed} {}: first {first_v} V, pack full {full_v} V",
+                f.name
+            );
+            assert!(p.capacity_ah > 0.5 && p.series_resistance_ohm > 0.0);
+        }
+    }
+}

@@ -100,3 +100,61 @@ pub fn diagnose_blind_with(
         heldout_headline: (d.baseline.heldout.headline(), d.after.heldout.headline()),
     })
 }
+
+/// One battery type's curve as the diagnosis learned it from the training flights.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LearnedCurve {
+    /// Battery type (the diagnosis's name).
+    pub battery_type: String,
+    /// State of charge the training flights covered (lowest, highest).
+    pub soc_covered: (f64, f64),
+    /// RMS of the fit's voltage residual, V per cell.
+    pub rmse_cell_v: f64,
+    /// Learned series resistance of one cell, Ω (before the baseline's cap at the nominal).
+    pub series_resistance_cell_ohm: f64,
+    /// Learned resistance of the RC pair of one cell, Ω.
+    pub rc_resistance_cell_ohm: f64,
+    /// The series resistance of one cell the diagnosis's baseline flies, Ω.
+    pub baseline_series_resistance_cell_ohm: f64,
+    battery: gap::battery::LearnedBattery,
+}
+
+impl LearnedCurve {
+    /// The learned open-circuit voltage of one cell at state of charge `soc`, V.
+    pub fn ocv_cell_v(&self, soc: f64) -> f64 {
+        self.battery.ocv_cell_v(soc)
+    }
+}
+
+/// The batteries the diagnosis learns from `train` (its first step, with its default options),
+/// one per battery type.
+pub fn learned_batteries(
+    train: &[Flight],
+    curve: &PolyCurve,
+    rotor_count: u8,
+) -> Result<Vec<LearnedCurve>, EvalError> {
+    let tr: Vec<FlightRecord> = train
+        .iter()
+        .map(|f| record_from_log(f).map_err(|e| EvalError::Diagnosis(error_chain(&e))))
+        .collect::<Result<_, _>>()?;
+    let tr: Vec<&FlightRecord> = tr.iter().collect();
+    let set = gap::diagnose::learn_batteries(
+        Model { curve, rotor_count },
+        &tr,
+        &DiagnoseOptions::default(),
+    );
+    Ok(set
+        .fits
+        .iter()
+        .zip(&set.baselines)
+        .map(|(f, b)| LearnedCurve {
+            battery_type: f.battery_type.clone(),
+            soc_covered: f.soc_covered,
+            rmse_cell_v: f.rmse_cell_v,
+            series_resistance_cell_ohm: f.battery.series_resistance_cell_ohm,
+            rc_resistance_cell_ohm: f.battery.rc_resistance_cell_ohm,
+            baseline_series_resistance_cell_ohm: b.series_resistance_cell_ohm,
+            battery: f.battery,
+        })
+        .collect())
+}

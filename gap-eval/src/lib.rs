@@ -26,6 +26,7 @@
 //! ```
 
 pub mod adapter;
+pub mod oracle;
 
 use std::ops::Range;
 use std::path::Path;
@@ -256,9 +257,28 @@ pub fn run_scenario_with(
     families: &[Family],
     rule: UnexplainedRule,
 ) -> Result<ScenarioResult, EvalError> {
+    run_scenario_oracle(seed, families, rule, oracle::BatteryOracle::Off)
+}
+
+/// [`run_scenario_with`] with an oracle-battery experiment switch ([`oracle`]; `Off`: the same
+/// run).
+pub fn run_scenario_oracle(
+    seed: u64,
+    families: &[Family],
+    rule: UnexplainedRule,
+    battery_oracle: oracle::BatteryOracle,
+) -> Result<ScenarioResult, EvalError> {
     let family = family_of(seed, families);
     let effect = draw_effect(seed);
-    let set = generate(&family, &effect, seed);
+    let mut set = generate(&family, &effect, seed);
+    // Kept until the flights are diagnosed: the measured curve's file, when the oracle writes one.
+    let _curve_file = oracle::apply(
+        battery_oracle,
+        &family,
+        seed,
+        &mut set,
+        &std::env::temp_dir(),
+    )?;
     let train = read_back(&set.train)?;
     let heldout = read_back(&set.heldout)?;
     let curve = rig_curve(&set.rig)?;
@@ -513,6 +533,15 @@ pub fn study(
     opts: &StudyOptions,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Result<StudyReport, EvalError> {
+    study_with_oracle(opts, oracle::BatteryOracle::Off, progress)
+}
+
+/// [`study`] with an oracle-battery experiment switch ([`oracle`]; `Off`: the same study).
+pub fn study_with_oracle(
+    opts: &StudyOptions,
+    battery_oracle: oracle::BatteryOracle,
+    progress: &(dyn Fn(usize) + Sync),
+) -> Result<StudyReport, EvalError> {
     if opts.families.is_empty() {
         return Err(EvalError::NoFamily(String::new()));
     }
@@ -532,7 +561,12 @@ pub fn study(
                         let Some(&seed) = all.get(k) else { break };
                         out.push((
                             seed,
-                            run_scenario_with(seed, families, opts.unexplained_rule),
+                            run_scenario_oracle(
+                                seed,
+                                families,
+                                opts.unexplained_rule,
+                                battery_oracle,
+                            ),
                         ));
                         let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
                         progress(n);
