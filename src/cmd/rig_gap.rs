@@ -188,6 +188,8 @@ fn text(d: &Diagnosis, rule: &str) -> String {
 pub fn run(args: Args) -> Result<()> {
     let train = read(&args.sweeps, &args.stand)?;
     let held = read(&args.holdout, &args.stand)?;
+    // A held-out log that is also trained on would be scored as if unseen.
+    crate::overlap::refuse(&args.sweeps, &args.holdout, "stand log")?;
     let (train, held, rule) = if held.is_empty() {
         split_default(train)
     } else {
