@@ -526,6 +526,9 @@ pub fn run(args: Args) -> Result<()> {
             b.rmse_cell_v,
             b.note
         );
+        for w in &b.warnings {
+            println!("  warning: {w}");
+        }
         if let (Some(u), Some(lost)) = (b.usable_capacity_ah, b.capacity_lost_fraction()) {
             println!(
                 "  usable capacity {u:.3} Ah (full to the cut-off) of {:.3} Ah rated: {}",
