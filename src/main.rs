@@ -10,6 +10,7 @@ use clap::Parser;
 
 mod cmd;
 mod output;
+mod overlap;
 
 /// Thrust-bench characterisation, endurance estimation and sim-to-real diagnosis for hovering
 /// robots.

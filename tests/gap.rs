@@ -423,3 +423,82 @@ fn unexplained_says_why_in_text_and_json_alike() {
         assert!(text.contains(&mean), "{mean} not in\n{text}");
     }
 }
+
+/// `battery learn` from one LiFePO₄ hover flight says what that flight could not teach: one
+/// flight, the charge below the lowest it reached (the prior's end, 1.6 V per cell at 0 %: the
+/// electrodes' limit, under the cut-off), no RC pair from a steady load; the same words in
+/// `--json`. From the pack's four flights those warnings are gone.
+#[test]
+fn battery_learn_from_one_flight_says_what_it_could_not_teach() {
+    let dir = tempfile::tempdir().unwrap();
+    let set = dir.path().join("set");
+    ok(&[
+        "simulate-flights",
+        "-o",
+        set.to_str().unwrap(),
+        "--family",
+        "lfp/fc-10hz/varied",
+        "--seed",
+        "3",
+    ]);
+    let params = dir.path().join("params.toml");
+    let p = params.to_str().unwrap();
+    ok(&["fit", set.join("rig-sweep.csv").to_str().unwrap(), "-o", p]);
+    let fitted = std::fs::read(&params).unwrap();
+    let one = dir.path().join("one");
+    std::fs::create_dir(&one).unwrap();
+    for ext in ["csv", "toml"] {
+        let name = format!("1-hover-A.{ext}");
+        std::fs::copy(set.join("train").join(&name), one.join(&name)).unwrap();
+    }
+    let out = run(&["battery", "learn", "--params", p, one.to_str().unwrap()]);
+    assert!(out.status.success());
+    let err = String::from_utf8(out.stderr).unwrap();
+    let warnings: Vec<&str> = err
+        .lines()
+        .filter_map(|l| l.strip_prefix("warning: "))
+        .collect();
+    assert_eq!(warnings.len(), 3, "{err}");
+    assert!(warnings[0].starts_with("learned from one flight"), "{err}");
+    assert!(
+        warnings[1].starts_with("no flight reached below")
+            && warnings[1].contains("lifepo4 prior's shape")
+            && warnings[1].contains("charge the autopilot never uses"),
+        "{err}"
+    );
+    assert!(warnings[2].starts_with("no RC pair identified"), "{err}");
+    std::fs::write(&params, &fitted).unwrap();
+    let v = json(&[
+        "battery",
+        "learn",
+        "--params",
+        p,
+        one.to_str().unwrap(),
+        "--json",
+    ]);
+    let in_json: Vec<&str> = v["fit"]["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w.as_str().unwrap())
+        .collect();
+    assert_eq!(in_json, warnings);
+    // The pack's four training flights (climbs, attachment): learned over the whole charge.
+    std::fs::write(&params, &fitted).unwrap();
+    let v = json(&[
+        "battery",
+        "learn",
+        "--params",
+        p,
+        set.join("train").to_str().unwrap(),
+        "--battery-type",
+        "lfp-A",
+        "--json",
+    ]);
+    assert_eq!(v["fit"]["flights"], 4);
+    assert!(
+        v["fit"]["warnings"].as_array().unwrap().is_empty(),
+        "{}",
+        v["fit"]["warnings"]
+    );
+}

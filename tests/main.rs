@@ -25,6 +25,8 @@ mod export;
 mod flights;
 #[path = "gap.rs"]
 mod gap;
+#[path = "holdout_overlap.rs"]
+mod holdout_overlap;
 #[path = "import.rs"]
 mod import;
 #[path = "replay.rs"]

@@ -57,7 +57,15 @@
 //! chemistry says where the knee is. With flights covering less than a quarter
 //! of the charge, or fewer than 200 voltage samples, the fit keeps the prior's shape and learns
 //! only an offset and the resistances ([`BatteryFit::note`] says so). The usable capacity needs
-//! at least one flight from a full pack to the cut-off. The diagnosis's baseline
+//! at least one flight from a full pack to the cut-off. An RC pair needs a load that changes
+//! (a steady hover cannot tell a fast sag from the series resistance). What a fit's flights did
+//! not teach is listed in [`BatteryFit::warnings`] ([`plausibility`]): one flight, charge no
+//! flight visited (and whether it lies below the cut-off, where it is never used), knots
+//! pulled beyond the prior's band, no RC pair; `hoverbench battery learn` prints them. A
+//! LiFePO₄ pack learned from one hover flight (flight-sim `lfp/fc-10hz/varied` seed 3) shows
+//! 1.59 V per cell at 0 %: that is the prior's own end (1.56 V, the electrodes' limit in the
+//! Afshar formula's window), kept below the 6 % the flight reached, under its cut-off. The
+//! diagnosis's baseline
 //! takes the learned series resistance up to the nominal (5 mΩ per cell): resistance above it
 //! stays a diagnosable effect (`internal_resistance`) instead of vanishing into the battery; the
 //! learned value is reported either way.
@@ -467,6 +475,10 @@ pub struct BatteryFit {
     /// (median over flights that started full and flew to the cut-off); `None` when no flight
     /// did. A pack that lost capacity shows it here, below the rated one.
     pub usable_capacity_ah: Option<f64>,
+    /// What these flights could not teach, in words with numbers ([`plausibility`]): a single
+    /// flight, charge no flight visited (where the curve is the prior's shape), knots pulled
+    /// beyond the prior's band, no RC pair. Empty when nothing is missing.
+    pub warnings: Vec<String>,
 }
 
 impl BatteryFit {
@@ -871,6 +883,114 @@ fn fit_once(
     None
 }
 
+/// Widest departure of a learned knot from its prior, in σ of the prior's pull in the fit
+/// (0.03 V per cell with the chemistry given, 0.3 V without): beyond it the data pulled the
+/// curve out of the chemistry's band, which a healthy pack of that chemistry does not do (a
+/// count far off, a wrong chemistry, a measured curve that is not this pack's).
+pub const PRIOR_BAND_SIGMAS: f64 = 3.0;
+
+/// What the flights behind a learned battery could not teach, in words with numbers; empty
+/// when nothing is missing. Nothing here changes the learned battery (where no flight
+/// measured the curve, the fit already keeps the prior's shape there): it says which parts of
+/// it are the prior's and which data would teach them.
+///
+/// - **One flight**: nothing to judge the fit against (a second flight's scatter: its own
+///   current sensor's scale, its own start).
+/// - **Charge no flight visited** (more than one knot, 5 %, at either end): there the curve is
+///   the prior's shape, shifted with the learned part. When the lowest charge reached is next
+///   to the flights' cut-off (per cell, the median over the flights; within a knot), the part
+///   below is charge the autopilot never uses, whatever its voltage.
+/// - **Knots beyond the prior's band** ([`PRIOR_BAND_SIGMAS`] × the prior's σ) inside the
+///   charge the flights covered, where the prior lies above the cut-off.
+/// - **No RC pair**: its fit came out at zero, so the series resistance carries the whole sag
+///   (a steady load, e.g. one hover, cannot tell a fast sag from a resistance; changing loads
+///   can).
+///
+/// `prior_sigma_v` is the σ of the prior's pull in the fit, V per cell.
+pub fn plausibility(fit: &BatteryFit, data: &[BatteryData<'_>], prior_sigma_v: f64) -> Vec<String> {
+    let mut out = Vec::new();
+    if fit.samples == 0 {
+        return out;
+    }
+    let b = &fit.battery;
+    if fit.flights == 1 {
+        out.push(
+            "learned from one flight: nothing to judge the fit against (another flight's scatter, its current sensor's own scale); learn from several flights of the pack, from full to the cut-off".to_owned(),
+        );
+    }
+    let measured = fit.prior == Chemistry::Measured;
+    let step = 1.0 / (OCV_KNOTS - 1) as f64;
+    let (lo, hi) = fit.soc_covered;
+    if !measured {
+        let mut cutoffs: Vec<f64> = data
+            .iter()
+            .map(|d| d.flight.info.cutoff_voltage_v / f64::from(d.flight.info.cells.max(1)))
+            .filter(|v| v.is_finite() && *v > 0.0)
+            .collect();
+        cutoffs.sort_by(f64::total_cmp);
+        let cutoff = crate::stats::median(&cutoffs);
+        if lo > step {
+            let at_zero = format!(
+                "the curve there is the {} prior's shape, not these flights' ({:.2} V per cell at 0 %)",
+                fit.prior.name(),
+                b.ocv_cell_v[0]
+            );
+            // Where the flights' cut-off sits on this curve (its open-circuit voltage is at
+            // least the loaded cut-off, so the charge below it is never flown).
+            let s_cut = cutoff.map(|c| (c, b.soc_for_ocv(c)));
+            out.push(match s_cut {
+                Some((c, sc)) if lo <= sc + step => format!(
+                    "no flight reached below {:.0} % charge, next to the flights' cut-off ({c:.2} V per cell, {:.0} % charge on this curve): {at_zero}, charge the autopilot never uses",
+                    lo * 100.0,
+                    sc * 100.0
+                ),
+                _ => format!(
+                    "no flight reached below {:.0} % charge: {at_zero}; fly a flight to the cut-off to learn it",
+                    lo * 100.0
+                ),
+            });
+        }
+        if hi < 1.0 - step {
+            out.push(format!(
+                "no flight started above {:.0} % charge: above it the curve is the {} prior's shape, not these flights' ({:.2} V per cell full); start a flight from a full pack to learn it",
+                hi * 100.0,
+                fit.prior.name(),
+                b.ocv_cell_v[OCV_KNOTS - 1]
+            ));
+        }
+        if let Some(prior) = fit.prior.prior() {
+            let band = PRIOR_BAND_SIGMAS * prior_sigma_v;
+            let worst = (0..OCV_KNOTS)
+                // Inside the charge the flights covered, and where the prior lies above the
+                // cut-off (below it a prior's end is the electrodes' stoichiometric limit, e.g.
+                // LiFePO₄'s 1.56 V per cell at 0 %, not a state any flight reaches).
+                .filter(|&k| {
+                    let soc = k as f64 * step;
+                    soc >= lo - 1e-9
+                        && soc <= hi + 1e-9
+                        && cutoff.is_none_or(|c| prior.ocv_cell_v[k] >= c)
+                })
+                .map(|k| (k, b.ocv_cell_v[k] - prior.ocv_cell_v[k]))
+                .max_by(|x, y| x.1.abs().total_cmp(&y.1.abs()));
+            if let Some((k, d)) = worst.filter(|(_, d)| d.abs() > band) {
+                out.push(format!(
+                    "the curve leaves the {} prior's band: {:+.2} V per cell at {:.0} % charge, beyond {band:.2} V ({PRIOR_BAND_SIGMAS:.0} σ of the prior); a count far off, another chemistry (--chemistry), or a pack unlike its rating",
+                    fit.prior.name(),
+                    d,
+                    k as f64 * step * 100.0
+                ));
+            }
+        }
+    }
+    if b.rc_resistance_cell_ohm <= 0.0 {
+        out.push(format!(
+            "no RC pair identified (its fit came out at zero): the series resistance ({:.1} mΩ per cell) carries the whole sag; flights whose load changes (climbs, attachment, a hover after a climb) separate the two",
+            b.series_resistance_cell_ohm * 1000.0
+        ));
+    }
+    out
+}
+
 /// Learns one battery type's behaviour from its training flights (see the module docs).
 /// `measured`: a given curve (kept as it is); else `chemistry`'s prior when known, else every
 /// chemistry prior, the best-fitting kept.
@@ -999,6 +1119,7 @@ pub fn fit_battery(
                             / (f64::from(d.flight.info.cells.max(1)) * b.mean_ocv_cell_v())
                     }),
                     usable_capacity_ah: anchor.usable_ah,
+                    warnings: Vec::new(),
                 },
                 obj,
             ));
@@ -1010,7 +1131,11 @@ pub fn fit_battery(
             }
         }
     }
-    best.map(|b| b.0).unwrap_or_else(|| {
+    best.map(|(mut fit, _)| {
+        fit.warnings = plausibility(&fit, data, prior_sigma_v);
+        fit
+    })
+    .unwrap_or_else(|| {
         let prior = measured.copied().unwrap_or_else(LearnedBattery::lipo);
         BatteryFit {
             battery_type: battery_type.to_owned(),
@@ -1028,6 +1153,7 @@ pub fn fit_battery(
             note: "no usable samples: the LiPo prior as it is".to_owned(),
             rated_capacity_ah: f64::NAN,
             usable_capacity_ah: None,
+            warnings: vec!["no usable samples: nothing was learned".to_owned()],
         }
     })
 }
@@ -1144,6 +1270,72 @@ mod tests {
             },
         };
         (f, current_a)
+    }
+
+    /// A learned battery says what its flights could not teach, and nothing when they taught it
+    /// all.
+    #[test]
+    fn plausibility_names_what_the_flights_did_not_cover() {
+        let prior = Chemistry::Lipo.prior().unwrap();
+        let (f, i) = flight_drawing(&prior, 0.5);
+        let data = [BatteryData {
+            flight: &f,
+            current_a: i,
+            source: CurrentSource::Logged,
+        }];
+        let fit = |b: LearnedBattery, flights: usize, covered: (f64, f64)| BatteryFit {
+            battery_type: "4S 40.0 Wh".into(),
+            battery: b,
+            prior: Chemistry::Lipo,
+            flights,
+            samples: 300,
+            soc_covered: covered,
+            rmse_cell_v: 0.01,
+            current: CurrentSource::Logged,
+            note: String::new(),
+            rated_capacity_ah: 3.0,
+            usable_capacity_ah: None,
+            warnings: Vec::new(),
+        };
+        let mut with_rc = prior;
+        with_rc.rc_resistance_cell_ohm = 0.004;
+        with_rc.rc_time_constant_s = 10.0;
+        // Several flights over the whole charge, on the prior, with an RC pair: nothing missing.
+        assert!(plausibility(&fit(with_rc, 4, (0.0, 1.0)), &data, 0.03).is_empty());
+        // One flight over the upper half, no RC pair: each named, with its numbers.
+        let w = plausibility(&fit(prior, 1, (0.5, 1.0)), &data, 0.03);
+        assert_eq!(w.len(), 3, "{w:?}");
+        assert!(w[0].starts_with("learned from one flight"), "{w:?}");
+        assert!(
+            w[1].starts_with("no flight reached below 50 % charge")
+                && w[1].contains("lipo prior's shape")
+                && w[1].contains("fly a flight to the cut-off"),
+            "{w:?}"
+        );
+        assert!(w[2].starts_with("no RC pair identified"), "{w:?}");
+        // Reaching down to the cut-off (3.46 V per cell here): the rest is charge never used.
+        let s_cut = prior.soc_for_ocv(3.46);
+        let w = plausibility(&fit(with_rc, 4, (s_cut + 0.02, 1.0)), &data, 0.03);
+        assert!(
+            w.len() == 1 && w[0].contains("charge the autopilot never uses"),
+            "{w:?}"
+        );
+        // A start short of full.
+        let w = plausibility(&fit(with_rc, 4, (0.0, 0.8)), &data, 0.03);
+        assert!(
+            w.len() == 1 && w[0].starts_with("no flight started above 80 % charge"),
+            "{w:?}"
+        );
+        // A knot pulled 0.2 V off the prior inside the covered charge: beyond 3 × 0.03 V, but
+        // within 3 × 0.3 V when the chemistry was not given.
+        let mut off = with_rc;
+        off.ocv_cell_v[10] += 0.2;
+        let w = plausibility(&fit(off, 4, (0.0, 1.0)), &data, 0.03);
+        assert!(
+            w.len() == 1 && w[0].contains("+0.20 V per cell at 50 % charge"),
+            "{w:?}"
+        );
+        assert!(plausibility(&fit(off, 4, (0.0, 1.0)), &data, 0.3).is_empty());
     }
 
     #[test]

@@ -9,8 +9,10 @@
 //! - [`flight::FlightRecord`]: a flight's voltage, current, phases and altitude with what it
 //!   carried; [`logs::record_from_log`] makes one from any log `flightlog` reads.
 //! - [`battery::LearnedBattery`]: the pack's open-circuit curve, series resistance and RC
-//!   pair, learned per battery type from the training flights (chemistry priors from measured
-//!   PyBaMM curves, or a measured curve the user gives).
+//!   pair, learned per battery type from the training flights (chemistry priors from PyBaMM's
+//!   measured electrode curves, LiFePO₄'s from the published Afshar et al. 2017 formula, or a
+//!   measured curve the user gives: the crate's one file read, in [`logs::record_from_log`],
+//!   is such a curve named by a flight's `battery_ocv_csv` metadata).
 //! - [`model::Model`]: the paper's power model driving the learned battery, with the library
 //!   of candidate [`model::Effect`]s, each one bounded parameter.
 //! - [`diagnose::diagnose`], in named steps: learns the batteries, localises the gap (by

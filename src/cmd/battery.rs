@@ -140,5 +140,9 @@ fn learn(a: LearnArgs) -> Result<()> {
             println!("note: {}", learned.fit.note);
         }
     }
+    // What the flights could not teach (also in `--json`: `fit.warnings`).
+    for w in &learned.fit.warnings {
+        eprintln!("warning: {w}");
+    }
     Ok(())
 }

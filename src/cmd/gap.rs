@@ -94,10 +94,13 @@ enum PhaseKind {
     Missing,
 }
 
+/// Reads the flights of `paths` (files or folders); `sources` gets every flight's log file,
+/// read or skipped after reading.
 fn read(
     paths: &[PathBuf],
     skipped: &mut Vec<(String, String)>,
     phases: &mut Vec<PhaseNote>,
+    sources: &mut Vec<PathBuf>,
 ) -> Result<Vec<FlightRecord>> {
     let mut out = Vec::new();
     for p in paths {
@@ -114,6 +117,7 @@ fn read(
             skipped.push((s.path.display().to_string(), s.why()));
         }
         for f in &set.flights {
+            sources.push(f.source.clone());
             let (kind, how) = match &f.phase_source {
                 PhaseSource::Logged => (PhaseKind::Logged, "logged".to_owned()),
                 PhaseSource::Inferred { method, notes } => {
@@ -285,8 +289,21 @@ fn print_where(w: &gap::diagnose::Where) {
 pub fn run(args: Args) -> Result<()> {
     let mut skipped = Vec::new();
     let mut phase_notes = Vec::new();
-    let flights = read(&args.flights, &mut skipped, &mut phase_notes)?;
-    let given = read(&args.holdout, &mut skipped, &mut phase_notes)?;
+    let (mut train_files, mut held_files) = (Vec::new(), Vec::new());
+    let flights = read(
+        &args.flights,
+        &mut skipped,
+        &mut phase_notes,
+        &mut train_files,
+    )?;
+    let given = read(
+        &args.holdout,
+        &mut skipped,
+        &mut phase_notes,
+        &mut held_files,
+    )?;
+    // A held-out flight that is also trained on would be scored as if unseen.
+    crate::overlap::refuse(&train_files, &held_files, "flight")?;
     // Why files were left out comes first, whatever happens next.
     if !args.json {
         for (path, why) in &skipped {
@@ -509,6 +526,9 @@ pub fn run(args: Args) -> Result<()> {
             b.rmse_cell_v,
             b.note
         );
+        for w in &b.warnings {
+            println!("  warning: {w}");
+        }
         if let (Some(u), Some(lost)) = (b.usable_capacity_ah, b.capacity_lost_fraction()) {
             println!(
                 "  usable capacity {u:.3} Ah (full to the cut-off) of {:.3} Ah rated: {}",

@@ -223,6 +223,8 @@ pub fn run(args: Args) -> Result<()> {
     let (train, mut log_notes) = read(&args.sweeps, &args.stand)?;
     let (held, held_notes) = read(&args.holdout, &args.stand)?;
     log_notes.extend(held_notes);
+    // A held-out log that is also trained on would be scored as if unseen.
+    crate::overlap::refuse(&args.sweeps, &args.holdout, "stand log")?;
     let (train, held, rule) = if held.is_empty() {
         split_default(train)
     } else {
