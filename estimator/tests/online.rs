@@ -904,3 +904,40 @@ fn a_charged_start_moves_a_low_voltage_reading_into_the_curve_offset() {
     // Off by default, and with it off the estimate is the default's to the bit.
     assert_eq!(OnlineConfig::default().charged_start_soc_sigma, 0.0);
 }
+
+#[test]
+fn an_observed_state_is_fused_after_the_first_sample_and_refused_before() {
+    use estimator::online::FilterState;
+    let cfg = OnlineConfig::default();
+    let mut est = OnlineEstimator::new(&params(), &file_battery(), &cfg).unwrap();
+    assert!(
+        est.observe_state(FilterState::Soc, 0.9, 0.01).is_err(),
+        "before the first sample"
+    );
+    // A first voltage that reads 0.1 V per cell below the full pack's open-circuit voltage.
+    let v = 3.0 * (truth_ocv_cell_v(1.0) - 0.1);
+    let first = est.update(&Sample {
+        time_s: 0.0,
+        voltage_v: v,
+        current_a: Some(0.3),
+        phase: Some(FlightPhase::Ground),
+    });
+    assert!(first.soc < 0.95, "{}", first.soc);
+    for bad in [(0.99, 0.0), (f64::NAN, 0.01), (0.99, -1.0)] {
+        assert!(est.observe_state(FilterState::Soc, bad.0, bad.1).is_err());
+    }
+    assert_eq!(est.estimate(), first, "a refused reading changes nothing");
+    // Told the pack is full, the misfit of the first voltage goes to the curve offset.
+    est.observe_state(FilterState::Soc, 0.99, 1e-3).unwrap();
+    let e = est.estimate();
+    assert!((e.soc - 0.99).abs() < 3e-3, "{}", e.soc);
+    assert!(est.curve_offset_v().0 < -0.15, "{:?}", est.curve_offset_v());
+    // A known extra power is taken as given.
+    est.observe_state(FilterState::ExtraPowerW, 12.0, 0.01)
+        .unwrap();
+    assert!((est.estimate().extra_power_w - 12.0).abs() < 0.05);
+    est.observe_state(FilterState::CapacityScale, 0.8, 1e-4)
+        .unwrap();
+    let q = est.estimate().usable_capacity_ah;
+    assert!((q - 0.8 * NOMINAL.capacity_ah).abs() < 1e-3, "{q}");
+}

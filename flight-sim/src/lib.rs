@@ -46,7 +46,10 @@ use serde::Serialize;
 
 pub use mission::{FlightPlan, HALL_CEILING_M, Leg, plans};
 pub use robot::{Propulsion, Robot};
-pub use simulate::{PackTruth, SensorErrors, SimFlight, pack_truth, simulate, simulate_with};
+pub use simulate::{
+    FlightTruth, PackTruth, SensorErrors, SimFlight, pack_truth, simulate, simulate_with,
+    simulate_with_truth,
+};
 pub use world::{Chemistry, EffectKind, Family, Logging, NoFamily, RobotVariant, Withheld};
 
 /// A pack as its label says.
@@ -172,6 +175,7 @@ pub fn generate(family: &Family, effect: &Withheld, seed: u64) -> GeneratedSet {
                             false,
                             SensorErrors::Drawn,
                         )
+                        .0
                         .endurance_s
                     }
                     _ => {
@@ -184,6 +188,7 @@ pub fn generate(family: &Family, effect: &Withheld, seed: u64) -> GeneratedSet {
                             false,
                             SensorErrors::Drawn,
                         )
+                        .0
                         .endurance_s
                     }
                 };

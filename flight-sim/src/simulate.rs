@@ -42,6 +42,43 @@ pub struct SimFlight {
     pub samples: usize,
 }
 
+/// What one flight really was, beside its log: the pack it flew (curve, capacity, impedance,
+/// start), what the pack saw in the air (temperature, resistance, power) and where it ended.
+/// For a study harness's oracle ablation only ([`simulate_with_truth`]); never written into the
+/// flight's files, so nothing that reads them can see it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FlightTruth {
+    /// The pack's open-circuit curve of one cell (on its own state-of-charge axis: 0 empty,
+    /// 1 full, over [`Self::capacity_ah`]).
+    pub ocv: OcvCurve,
+    /// Cells in series.
+    pub cells: u8,
+    /// Charge from full to empty of the pack flown (its fade included), Ah.
+    pub capacity_ah: f64,
+    /// State of charge at the first sample.
+    pub start_soc: f64,
+    /// State of charge when the flight ended (at the cut-off: the charge the pack still held).
+    pub end_soc: f64,
+    /// Series resistance of one cell at 25 °C, Ω.
+    pub r0_cell_ohm_25c: f64,
+    /// The cell's two RC pairs at 25 °C: (Ω, s).
+    pub rc_cell_25c: [(f64, f64); 2],
+    /// Resistance outside the cells (a worn connector), Ω.
+    pub extra_resistance_ohm: f64,
+    /// Hysteresis half-width of a cell, V.
+    pub hysteresis_cell_v: f64,
+    /// Mean cell temperature while airborne, °C.
+    pub mean_airborne_cell_c: f64,
+    /// Mean series resistance of the pack while airborne (cells at their temperature, plus
+    /// [`Self::extra_resistance_ohm`]), Ω.
+    pub mean_airborne_series_ohm: f64,
+    /// Mean electrical power the pack delivered while airborne (rotors, leads, avionics and
+    /// payload), W.
+    pub mean_airborne_power_w: f64,
+    /// Mean electrical power the pack delivered in level hover (the logged `hover` phase), W.
+    pub mean_hover_power_w: f64,
+}
+
 /// The pack of one flight: its cells' curve, capacity and impedance.
 struct Pack {
     ocv: OcvCurve,
@@ -188,7 +225,7 @@ pub fn simulate(
     effect: &Withheld,
     seed: u64,
 ) -> SimFlight {
-    run(family, robot, plan, effect, seed, true, SensorErrors::Drawn)
+    run(family, robot, plan, effect, seed, true, SensorErrors::Drawn).0
 }
 
 /// [`simulate`] with a choice of the sensors' constant errors ([`SensorErrors::Drawn`]: the
@@ -201,6 +238,19 @@ pub fn simulate_with(
     seed: u64,
     sensors: SensorErrors,
 ) -> SimFlight {
+    run(family, robot, plan, effect, seed, true, sensors).0
+}
+
+/// [`simulate_with`] and the flight's truth beside it (the same flight, byte for byte): what a
+/// study's oracle ablation hands the estimator one piece at a time.
+pub fn simulate_with_truth(
+    family: &Family,
+    robot: &Robot,
+    plan: &FlightPlan,
+    effect: &Withheld,
+    seed: u64,
+    sensors: SensorErrors,
+) -> (SimFlight, FlightTruth) {
     run(family, robot, plan, effect, seed, true, sensors)
 }
 
@@ -213,7 +263,7 @@ pub(crate) fn run(
     seed: u64,
     log: bool,
     errors: SensorErrors,
-) -> SimFlight {
+) -> (SimFlight, FlightTruth) {
     let mut pack_rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7061_636b);
     let mut noise_rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6e6f_6973);
     let mut ctrl_rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6374_726c);
@@ -293,6 +343,10 @@ pub(crate) fn run(
     let mut last_v = pack.cells * pack.ocv.at(soc);
     let mut drop_left = 0usize;
     let mut ended = false;
+    // Sums for the truth: airborne time-weighted cell temperature, series resistance, power;
+    // hover power.
+    let (mut air_k, mut air_r, mut air_w) = (0.0_f64, 0.0_f64, 0.0_f64);
+    let (mut hover_s, mut hover_w) = (0.0_f64, 0.0_f64);
 
     'legs: for leg in &plan.legs {
         let mut leg_t = 0.0;
@@ -450,12 +504,18 @@ pub(crate) fn run(
             }
             if flying {
                 airborne_s += dt;
+                air_k += cell_k * dt;
+                air_r += r * dt;
+                air_w += load_w * dt;
+            }
+            if phase == LoggedPhase::Hover {
+                hover_s += dt;
+                hover_w += load_w * dt;
             }
             t += dt;
             leg_t += dt;
         }
     }
-    let _ = airborne_s;
     let logged_payload = plan.payload_mass_kg + water0;
     let mut toml = String::new();
     let _ = writeln!(
@@ -481,12 +541,31 @@ pub(crate) fn run(
         "end = \"{}\"",
         if ended { "cutoff" } else { "landed" }
     );
-    SimFlight {
-        name: plan.name.clone(),
-        csv,
-        toml,
-        endurance_s: t,
-        ended_at_cutoff: ended,
-        samples,
-    }
+    let air = airborne_s.max(1e-9);
+    let truth = FlightTruth {
+        cells: chem.cells(),
+        capacity_ah: pack.capacity_ah,
+        start_soc,
+        end_soc: soc,
+        r0_cell_ohm_25c: pack.r0_ohm,
+        rc_cell_25c: pack.rc,
+        extra_resistance_ohm: extra_r,
+        hysteresis_cell_v: pack.hysteresis_v,
+        mean_airborne_cell_c: air_k / air - 273.15,
+        mean_airborne_series_ohm: air_r / air,
+        mean_airborne_power_w: air_w / air,
+        mean_hover_power_w: hover_w / hover_s.max(1e-9),
+        ocv: pack.ocv,
+    };
+    (
+        SimFlight {
+            name: plan.name.clone(),
+            csv,
+            toml,
+            endurance_s: t,
+            ended_at_cutoff: ended,
+            samples,
+        },
+        truth,
+    )
 }

@@ -5,6 +5,8 @@
 //! pack that ran out earlier than the learned section says: fade, cold, a knee the curve lacks).
 //! `SWEEP_SENSORS=ideal` (or `ideal-voltage`, `ideal-current`) flies the same worlds with
 //! calibrated sensors (no per-flight scale or offset error; noise kept): the sensor ablation.
+//! `SWEEP_ORACLE=curve,power` (or `all`, `all-but-start`, …) hands the estimator those pieces
+//! of each flight's truth (`replay_eval::oracle`); the `budget` example runs the whole budget.
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -21,34 +23,21 @@ fn main() {
     let sensors = std::env::var("SWEEP_SENSORS").map_or(flight_sim::SensorErrors::Drawn, |s| {
         flight_sim::SensorErrors::parse(&s).expect("drawn, ideal-voltage, ideal-current or ideal")
     });
-    let study = replay_eval::study_with(&opts, sensors, &|| {});
+    let study = match std::env::var("SWEEP_ORACLE") {
+        Ok(o) => {
+            let mut oracle = replay_eval::Oracle::parse(&o).expect("SWEEP_ORACLE");
+            oracle.sensors |= sensors == flight_sim::SensorErrors::Ideal;
+            assert!(
+                oracle.sensors || sensors == flight_sim::SensorErrors::Drawn,
+                "SWEEP_ORACLE takes the sensors as `sensors` (ideal) only"
+            );
+            replay_eval::study_oracles(&opts, &[oracle], &|| {}).remove(0)
+        }
+        Err(_) => replay_eval::study_with(&opts, sensors, &|| {}),
+    };
     print!("{}", replay_eval::table(&study));
     if std::env::var_os("SWEEP_FLIGHTS").is_some() {
-        for (seed, fam, r) in &study.scenarios {
-            let Ok(o) = r else { continue };
-            for f in &o.flights {
-                let c = &f.checkpoints[1];
-                let d = f.end_s - f.takeoff_s;
-                let state = |n: &str| {
-                    f.final_state
-                        .iter()
-                        .find(|x| x.0 == n)
-                        .map_or(f64::NAN, |x| x.1)
-                };
-                println!(
-                    "{seed:4} {:24} {:18} {:16} err50 {:+6.1} % sigma {:5.1} % static {:+6.1} % | at the cut-off: soc {:.3} offset {:+.3} V",
-                    fam.name(),
-                    o.condition.name(),
-                    f.name,
-                    c.predicted_remaining_s
-                        .map_or(f64::NAN, |p| (p - c.true_remaining_s) / d * 100.0),
-                    c.sigma_s.map_or(f64::NAN, |s| s / d * 100.0),
-                    c.baselines[2].map_or(f64::NAN, |p| (p - c.true_remaining_s) / d * 100.0),
-                    state("soc"),
-                    state("curve_offset_v"),
-                );
-            }
-        }
+        print!("{}", replay_eval::flight_lines(&study));
     }
 }
 

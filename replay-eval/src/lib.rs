@@ -30,6 +30,8 @@
 //! calibrated sensors ([`flight_sim::SensorErrors`]: no per-flight scale or offset error on the
 //! voltage, the current or both), so a study tells how much of the error the sensors cause.
 
+pub mod oracle;
+
 use std::ops::Range;
 use std::path::Path;
 
@@ -37,10 +39,11 @@ use estimator::file::BatterySection;
 use estimator::online::OnlineConfig;
 use estimator::{Params, PolyCurve};
 use flight_sim::{
-    Chemistry, EffectKind, Family, FlightPlan, Logging, Robot, RobotVariant, SensorErrors,
-    SimFlight, Withheld, plans, simulate_with,
+    Chemistry, EffectKind, Family, FlightPlan, FlightTruth, Logging, Robot, RobotVariant,
+    SensorErrors, SimFlight, Withheld, plans, simulate_with, simulate_with_truth,
 };
 use flightlog::{Flight, FlightMeta, LogFormat};
+pub use oracle::{Oracle, OracleOnline};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use replay::online::FileOnline;
@@ -329,6 +332,10 @@ pub struct PreparedScenario {
     /// cell, from its pack's learned section (`BatterySection::curve_shape_sigma_cell_v`:
     /// the fit's RMSE and the prior's pull), or `None` to keep the configured value.
     pub curve_sigma_cell_v: Vec<Option<f64>>,
+    /// The truth of each flight in [`Self::flights`] (flight-sim's record beside the flight):
+    /// for the oracle ablation only ([`replay_scenario_with_oracle`]); the plain replay never
+    /// reads it.
+    pub truths: Vec<FlightTruth>,
 }
 
 /// Flies a scenario's training and held-out flights and learns its packs (steps 1–3 of the
@@ -404,6 +411,7 @@ pub fn prepare_scenario_with(
     let effect = condition.effect();
     let mut flights = Vec::new();
     let mut curve_sigma = Vec::new();
+    let mut truths = Vec::new();
     let mut skipped = Vec::new();
     for (k, p) in held_plans.iter().enumerate() {
         let mut plan = p.clone();
@@ -416,7 +424,14 @@ pub fn prepare_scenario_with(
             }
             _ => {}
         }
-        let mut sim = fly(&plan, &effect, 100 + k as u64);
+        let (mut sim, truth) = simulate_with_truth(
+            family,
+            &robot,
+            &plan,
+            &effect,
+            seed.wrapping_mul(1_000_003).wrapping_add(100 + k as u64),
+            sensors,
+        );
         if let Some(d) = declared_payload {
             sim.toml = sim
                 .toml
@@ -450,6 +465,7 @@ pub fn prepare_scenario_with(
                 .then(|| section.curve_shape_sigma_cell_v(0.0)),
         );
         flights.push((flight, battery));
+        truths.push(truth);
     }
     let thrust_limit = train
         .iter()
@@ -465,6 +481,7 @@ pub fn prepare_scenario_with(
         flights,
         skipped,
         curve_sigma_cell_v: curve_sigma,
+        truths,
     })
 }
 
@@ -512,6 +529,108 @@ pub fn replay_scenario(prepared: &PreparedScenario, config: &OnlineConfig) -> Sc
         flights,
         skipped,
     }
+}
+
+/// [`replay_scenario`] with the pieces of each flight's truth that `oracle` hands the
+/// estimator ([`oracle`]); its `sensors` switch is the preparation's
+/// ([`prepare_scenario_with`] with [`Oracle::sensor_errors`]), not this function's. With
+/// [`Oracle::NONE`] the outcome is [`replay_scenario`]'s.
+pub fn replay_scenario_with_oracle(
+    prepared: &PreparedScenario,
+    config: &OnlineConfig,
+    oracle: Oracle,
+) -> ScenarioOutcome {
+    let mut flights = Vec::new();
+    let mut skipped = prepared.skipped.clone();
+    for (k, (flight, battery)) in prepared.flights.iter().enumerate() {
+        let mut config = *config;
+        if let Some(Some(s)) = prepared.curve_sigma_cell_v.get(k) {
+            config.cutoff_curve_sigma_cell_v = config.cutoff_curve_sigma_cell_v.max(*s);
+        }
+        let online = OracleOnline {
+            params: prepared.online_params(),
+            battery: *battery,
+            config,
+            truth: prepared.truths[k].clone(),
+            oracle,
+        };
+        // PX4 set up for the chemistry of the pack's learned section, as in `replay_scenario`
+        let rc = ReplayConfig {
+            params: prepared.params,
+            online: Some(&online),
+            chemistry: Some(battery.chemistry),
+        };
+        match replay::replay_flight(flight, &rc) {
+            Ok(r) => flights.push(r),
+            Err(reason) => skipped.push(SkippedFlight {
+                name: flight.name.clone(),
+                reason,
+            }),
+        }
+    }
+    ScenarioOutcome {
+        seed: prepared.seed,
+        family: prepared.family,
+        tuning: is_tuning_family(&prepared.family),
+        condition: prepared.condition,
+        packs: prepared.packs.clone(),
+        flights,
+        skipped,
+    }
+}
+
+/// The oracle budget on a study's seeds: every scenario is prepared once per sensor choice the
+/// `oracles` need and replayed with each; one [`Study`] per oracle, in the order given.
+pub fn study_oracles(
+    opts: &StudyOptions,
+    oracles: &[Oracle],
+    progress: &(dyn Fn() + Sync),
+) -> Vec<Study> {
+    type Row = (u64, Family, Result<ScenarioOutcome, String>);
+    let seeds: Vec<u64> = opts.seeds.clone().collect();
+    let threads = opts.threads.max(1);
+    let mut results: Vec<Vec<Row>> = vec![Vec::new(); oracles.len()];
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..threads)
+            .map(|t| {
+                let seeds = &seeds;
+                scope.spawn(move || {
+                    let mut out: Vec<Vec<Row>> = vec![Vec::new(); oracles.len()];
+                    for &s in seeds.iter().skip(t).step_by(threads) {
+                        let fam = family_of(s, &opts.families);
+                        for sensors in [SensorErrors::Drawn, SensorErrors::Ideal] {
+                            let mine: Vec<usize> = (0..oracles.len())
+                                .filter(|&k| oracles[k].sensor_errors() == sensors)
+                                .collect();
+                            if mine.is_empty() {
+                                continue;
+                            }
+                            let prepared = prepare_scenario_with(&fam, s, sensors);
+                            for k in mine {
+                                let r = match &prepared {
+                                    Ok(p) => {
+                                        Ok(replay_scenario_with_oracle(p, &opts.config, oracles[k]))
+                                    }
+                                    Err(e) => Err(e.to_string()),
+                                };
+                                out[k].push((s, fam, r));
+                            }
+                        }
+                        progress();
+                    }
+                    out
+                })
+            })
+            .collect();
+        for h in handles {
+            if let Ok(v) = h.join() {
+                for (k, rows) in v.into_iter().enumerate() {
+                    results[k].extend(rows);
+                }
+            }
+        }
+    });
+    results.into_iter().map(study_of).collect()
 }
 
 /// Runs one scenario (see the crate docs): [`prepare_scenario`] then [`replay_scenario`].
@@ -802,6 +921,41 @@ pub fn table(study: &Study) -> String {
             if let Err(e) = r {
                 let _ = writeln!(s, "  seed {seed} {}: {e}", fam.name());
             }
+        }
+    }
+    s
+}
+
+/// One line per replayed flight (what `sweep` prints with `SWEEP_FLIGHTS=1`): seed, family,
+/// condition, flight, the online error at 50 % and its one-sigma band (% of the flight), the
+/// static model's error, and the filter's state of charge and curve offset at the cut-off.
+pub fn flight_lines(study: &Study) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    for (seed, fam, r) in &study.scenarios {
+        let Ok(o) = r else { continue };
+        for f in &o.flights {
+            let c = &f.checkpoints[1];
+            let d = f.end_s - f.takeoff_s;
+            let state = |n: &str| {
+                f.final_state
+                    .iter()
+                    .find(|x| x.0 == n)
+                    .map_or(f64::NAN, |x| x.1)
+            };
+            let _ = writeln!(
+                s,
+                "{seed:4} {:24} {:18} {:16} err50 {:+6.1} % sigma {:5.1} % static {:+6.1} % | at the cut-off: soc {:.3} offset {:+.3} V",
+                fam.name(),
+                o.condition.name(),
+                f.name,
+                c.predicted_remaining_s
+                    .map_or(f64::NAN, |p| (p - c.true_remaining_s) / d * 100.0),
+                c.sigma_s.map_or(f64::NAN, |s| s / d * 100.0),
+                c.baselines[2].map_or(f64::NAN, |p| (p - c.true_remaining_s) / d * 100.0),
+                state("soc"),
+                state("curve_offset_v"),
+            );
         }
     }
     s

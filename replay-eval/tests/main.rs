@@ -6,6 +6,7 @@
 //! A new file `tests/<file>.rs` is added below as `mod <file>;`; the last test below fails
 //! for a file left out.
 
+mod oracle;
 mod separation;
 mod study;
 

@@ -134,6 +134,22 @@ impl FlightPhase {
     }
 }
 
+/// A state of the filter an outside reading can be fused into
+/// ([`OnlineEstimator::observe_state`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum FilterState {
+    /// State of charge, 0..1 of the usable capacity.
+    Soc,
+    /// Series resistance over the battery model's.
+    ResistanceScale,
+    /// Usable capacity over the battery model's.
+    CapacityScale,
+    /// Electrical power above the model's hover power, W.
+    ExtraPowerW,
+    /// Offset of the pack's open-circuit voltage from the battery model's curve, V (pack).
+    CurveOffsetV,
+}
+
 /// One logged sample.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sample {
@@ -638,6 +654,40 @@ impl OnlineEstimator {
             return (0.0, 0.0);
         }
         (self.x[VBIAS], libm::sqrt(self.p[(VBIAS, VBIAS)].max(0.0)))
+    }
+
+    /// Fuses an outside reading of one of the filter's states (`value`, with standard deviation
+    /// `sigma`) as a measurement, after the first sample: a smart battery's fuel gauge (state
+    /// of charge), a capacity or resistance measured on a charger, a payload's known power. The
+    /// correlated states move with it (a state of charge read from the first voltage carries
+    /// the curve offset along). The next update predicts afresh. A reading before the first
+    /// sample, or a value or sigma that is not finite (sigma must be positive) is an error and
+    /// changes nothing.
+    pub fn observe_state(
+        &mut self,
+        state: FilterState,
+        value: f64,
+        sigma: f64,
+    ) -> Result<(), EstimateError> {
+        crate::curve::require_finite("observed state", value)?;
+        require_positive("observed state sigma", sigma)?;
+        if !self.initialised {
+            return Err(EstimateError::Missing {
+                what: "a first sample before an observed state",
+            });
+        }
+        let k = match state {
+            FilterState::Soc => SOC,
+            FilterState::ResistanceScale => RSCALE,
+            FilterState::CapacityScale => CSCALE,
+            FilterState::ExtraPowerW => PEXTRA,
+            FilterState::CurveOffsetV => VBIAS,
+        };
+        let mut h = SMatrix::<f64, 1, STATES>::zeros();
+        h[k] = 1.0;
+        self.scalar_update(&h, value - self.x[k], sigma * sigma);
+        self.prediction = None;
+        Ok(())
     }
 
     /// Flies `plan` from the next sample on (its segments progress with the samples' clock;
