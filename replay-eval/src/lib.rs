@@ -498,37 +498,9 @@ impl PreparedScenario {
 /// Replays a prepared scenario's held-out flights with the online estimator configured by
 /// `config` (step 4 of the crate docs).
 pub fn replay_scenario(prepared: &PreparedScenario, config: &OnlineConfig) -> ScenarioOutcome {
-    let mut flights = Vec::new();
-    let mut skipped = prepared.skipped.clone();
-    for (k, (flight, battery)) in prepared.flights.iter().enumerate() {
-        let mut config = *config;
-        if let Some(Some(s)) = prepared.curve_sigma_cell_v.get(k) {
-            config.cutoff_curve_sigma_cell_v = config.cutoff_curve_sigma_cell_v.max(*s);
-        }
-        let online = FileOnline::new(prepared.online_params(), *battery, config);
-        // PX4 set up for the chemistry of the pack's learned section
-        let rc = ReplayConfig {
-            params: prepared.params,
-            online: Some(&online),
-            chemistry: Some(battery.chemistry),
-        };
-        match replay::replay_flight(flight, &rc) {
-            Ok(r) => flights.push(r),
-            Err(reason) => skipped.push(SkippedFlight {
-                name: flight.name.clone(),
-                reason,
-            }),
-        }
-    }
-    ScenarioOutcome {
-        seed: prepared.seed,
-        family: prepared.family,
-        tuning: is_tuning_family(&prepared.family),
-        condition: prepared.condition,
-        packs: prepared.packs.clone(),
-        flights,
-        skipped,
-    }
+    replay_scenario_by(prepared, config, &|_, battery, config| {
+        Box::new(FileOnline::new(prepared.online_params(), battery, config))
+    })
 }
 
 /// [`replay_scenario`] with the pieces of each flight's truth that `oracle` hands the
@@ -540,6 +512,28 @@ pub fn replay_scenario_with_oracle(
     config: &OnlineConfig,
     oracle: Oracle,
 ) -> ScenarioOutcome {
+    replay_scenario_by(prepared, config, &|k, battery, config| {
+        Box::new(OracleOnline {
+            params: prepared.online_params(),
+            battery,
+            config,
+            truth: prepared.truths[k].clone(),
+            oracle,
+        })
+    })
+}
+
+/// The replay of [`replay_scenario`] with the estimator of held-out flight `k` built by
+/// `online(k, its learned pack, config)`.
+fn replay_scenario_by(
+    prepared: &PreparedScenario,
+    config: &OnlineConfig,
+    online: &dyn Fn(
+        usize,
+        estimator::online::BatteryModel,
+        OnlineConfig,
+    ) -> Box<dyn replay::OnlineBuilder>,
+) -> ScenarioOutcome {
     let mut flights = Vec::new();
     let mut skipped = prepared.skipped.clone();
     for (k, (flight, battery)) in prepared.flights.iter().enumerate() {
@@ -547,17 +541,11 @@ pub fn replay_scenario_with_oracle(
         if let Some(Some(s)) = prepared.curve_sigma_cell_v.get(k) {
             config.cutoff_curve_sigma_cell_v = config.cutoff_curve_sigma_cell_v.max(*s);
         }
-        let online = OracleOnline {
-            params: prepared.online_params(),
-            battery: *battery,
-            config,
-            truth: prepared.truths[k].clone(),
-            oracle,
-        };
-        // PX4 set up for the chemistry of the pack's learned section, as in `replay_scenario`
+        let online = online(k, *battery, config);
+        // PX4 set up for the chemistry of the pack's learned section
         let rc = ReplayConfig {
             params: prepared.params,
-            online: Some(&online),
+            online: Some(online.as_ref()),
             chemistry: Some(battery.chemistry),
         };
         match replay::replay_flight(flight, &rc) {

@@ -23,14 +23,11 @@
 //! with every switch off it replays each flight exactly as the study does (tested). Nothing
 //! here reaches `gap`, `estimator`'s defaults or the CLI.
 
-use estimator::online::{
-    BatteryModel, FilterState, LIPO_OCV_CELL_V, MAX_PLAN_SEGMENTS, OCV_KNOTS, OnlineConfig,
-    OnlineEstimator, Sample as OnlineSample, Vehicle,
-};
-use estimator::{MissionOptions, Params, Segment};
+use estimator::Params;
+use estimator::online::{BatteryModel, FilterState, OCV_KNOTS, OnlineConfig, OnlineEstimator};
 use flight_sim::{FlightTruth, SensorErrors};
-use replay::methods::{FlightSetup, PlanLeg, Prediction, Predictor, Sample};
-use replay::online::{curve_is_degenerate, phase_of};
+use replay::methods::{FlightSetup, PlanLeg};
+use replay::online::{FileOnline, Online, plan_segments};
 use replay::{OnlineBuilder, OnlinePredictor};
 
 /// Which pieces of the truth the estimator is handed (see the module docs).
@@ -211,47 +208,9 @@ impl OnlineBuilder for OracleOnline {
         plan: &[PlanLeg],
         takeoff_s: f64,
     ) -> Result<Box<dyn OnlinePredictor>, String> {
-        // As `replay::online::FileOnline` builds it.
-        let vehicle = match (
-            setup.structure_mass_kg,
-            setup.battery_mass_kg,
-            setup.avionics_power_w,
-        ) {
-            (Some(s), Some(b), Some(a)) => Some(Vehicle {
-                structure_mass_kg: s,
-                battery_mass_kg: b,
-                payload_mass_kg: setup.payload_mass_kg,
-                avionics_power_w: a,
-                payload_power_w: setup.payload_power_w,
-            }),
-            _ => self.params.vehicle,
-        };
-        let vehicle = vehicle.ok_or_else(|| "no vehicle".to_owned())?;
-        let mut battery = self.battery;
-        if let Some(c) = setup.cells {
-            if c != u32::from(battery.cells) {
-                return Err(format!(
-                    "the flight's pack has {c} cells, the [battery] section {}",
-                    battery.cells
-                ));
-            }
-        }
-        if let Some(e) = setup.battery_energy_wh {
-            let k = e / battery.energy_wh();
-            if k.is_finite() && k > 0.0 && (k - 1.0).abs() > 0.01 {
-                battery.rated_capacity_ah *= k;
-                battery.series_resistance_cell_ohm /= k;
-                battery.rc_resistance_cell_ohm /= k;
-            }
-        }
-        if curve_is_degenerate(&battery) {
-            battery.ocv_cell_v = LIPO_OCV_CELL_V;
-        }
-        let mut config = self.config;
-        config.vehicle = Some(vehicle);
-        if let Some(v) = setup.cutoff_voltage_v {
-            config.cutoff_cell_v = Some(v / f64::from(battery.cells));
-        }
+        // As `replay::online::FileOnline` builds it, then the oracle's pieces.
+        let (mut battery, mut config) =
+            FileOnline::new(self.params, self.battery, self.config).flight_model(setup)?;
         // The oracle's pieces.
         let o = self.oracle;
         let t = &self.truth;
@@ -298,99 +257,9 @@ impl OnlineBuilder for OracleOnline {
         if o.start {
             pins.push((FilterState::Soc, t.start_soc, 1e-4));
         }
-        let mut segments: Vec<Segment> = plan
-            .iter()
-            .map(|l| match (l.attached, l.duration_s) {
-                (true, Some(d)) => Segment::Attached {
-                    duration_min: d / 60.0,
-                },
-                (false, Some(d)) => Segment::Hover {
-                    duration_min: d / 60.0,
-                },
-                (_, None) => Segment::HoverUntilEmpty,
-            })
-            .collect();
-        if segments.len() + 1 > MAX_PLAN_SEGMENTS {
-            segments.clear();
-        }
-        Ok(Box::new(OracleRun {
-            est,
-            segments,
-            takeoff_s,
-            plan_set: false,
-            last: None,
-            pins,
-        }))
-    }
-}
-
-struct OracleRun {
-    est: OnlineEstimator,
-    segments: Vec<Segment>,
-    takeoff_s: f64,
-    plan_set: bool,
-    last: Option<estimator::online::Estimate>,
-    /// Pieces of the truth still to fuse (after the first valid sample).
-    pins: Vec<(FilterState, f64, f64)>,
-}
-
-impl Predictor for OracleRun {
-    fn update(&mut self, s: &Sample) -> Option<Prediction> {
-        if !self.plan_set {
-            self.plan_set = true;
-            if !self.segments.is_empty() {
-                let mut plan = Vec::with_capacity(self.segments.len() + 1);
-                let ground = (self.takeoff_s - s.time_s).max(0.0);
-                if ground > 0.0 {
-                    plan.push(Segment::Attached {
-                        duration_min: ground / 60.0,
-                    });
-                }
-                plan.extend_from_slice(&self.segments);
-                let _ = self.est.set_plan(&plan, &MissionOptions::default());
-            }
-        }
-        let e = self.est.update(&OnlineSample {
-            time_s: s.time_s,
-            voltage_v: s.voltage_v,
-            current_a: s.current_a,
-            phase: s.phase.map(phase_of),
-        });
-        if !e.is_valid() {
-            return None;
-        }
-        for (state, value, sigma) in self.pins.drain(..) {
-            // A value outside what the filter holds is clamped by it; an invalid one (not
-            // finite) leaves the state alone.
-            let _ = self.est.observe_state(state, value, sigma);
-        }
-        self.last = Some(e);
-        Some(match (e.remaining_plan_s, e.remaining_plan_sigma_s) {
-            (Some(r), sigma) => Prediction {
-                remaining_s: r,
-                sigma_s: sigma,
-            },
-            (None, _) => Prediction {
-                remaining_s: e.remaining_phase_s,
-                sigma_s: Some(e.remaining_phase_sigma_s),
-            },
-        })
-    }
-}
-
-impl OnlinePredictor for OracleRun {
-    fn final_state(&self) -> Vec<(&'static str, f64)> {
-        self.last.map_or_else(Vec::new, |e| {
-            vec![
-                ("soc", e.soc),
-                ("usable_capacity_ah", e.usable_capacity_ah),
-                ("series_resistance_ohm", e.series_resistance_ohm),
-                ("extra_power_w", e.extra_power_w),
-                ("samples_rejected", f64::from(e.samples_rejected)),
-                ("curve_offset_v", self.est.curve_offset_v().0),
-                ("curve_offset_sigma_v", self.est.curve_offset_v().1),
-            ]
-        })
+        Ok(Box::new(
+            Online::new(est, plan_segments(plan), takeoff_s).with_readings(pins),
+        ))
     }
 }
 

@@ -21,8 +21,8 @@
 
 use estimator::file::ParamsFile;
 use estimator::online::{
-    BatteryModel, FlightPhase, LIPO_OCV_CELL_V, MAX_PLAN_SEGMENTS, OCV_KNOTS, OnlineConfig,
-    OnlineEstimator, Sample as OnlineSample, Vehicle,
+    BatteryModel, FilterState, FlightPhase, LIPO_OCV_CELL_V, MAX_PLAN_SEGMENTS, OCV_KNOTS,
+    OnlineConfig, OnlineEstimator, Sample as OnlineSample, Vehicle,
 };
 use estimator::{MissionOptions, Params, Segment};
 use flightlog::Phase;
@@ -94,13 +94,15 @@ pub fn phase_of(p: Phase) -> FlightPhase {
     }
 }
 
-impl OnlineBuilder for FileOnline {
-    fn build(
+impl FileOnline {
+    /// The pack model and filter configuration for one flight: the vehicle from the metadata
+    /// (else the file's), the pack scaled to the flight's rated energy, a degenerate curve
+    /// replaced by the built-in LiPo table, the flight's cut-off. What [`OnlineBuilder::build`]
+    /// starts the filter from; public so that a study can change a piece before it does.
+    pub fn flight_model(
         &self,
         setup: &FlightSetup,
-        plan: &[PlanLeg],
-        takeoff_s: f64,
-    ) -> Result<Box<dyn OnlinePredictor>, String> {
+    ) -> Result<(BatteryModel, OnlineConfig), String> {
         let vehicle = match (
             setup.structure_mass_kg,
             setup.battery_mass_kg,
@@ -149,41 +151,84 @@ impl OnlineBuilder for FileOnline {
         if let Some(v) = setup.cutoff_voltage_v {
             config.cutoff_cell_v = Some(v / f64::from(battery.cells));
         }
-        let est = OnlineEstimator::new(&self.params, &battery, &config)
-            .map_err(|e| format!("online estimator: {e}"))?;
-        let mut segments: Vec<Segment> = plan
-            .iter()
-            .map(|l| match (l.attached, l.duration_s) {
-                (true, Some(d)) => Segment::Attached {
-                    duration_min: d / 60.0,
-                },
-                (false, Some(d)) => Segment::Hover {
-                    duration_min: d / 60.0,
-                },
-                (_, None) => Segment::HoverUntilEmpty,
-            })
-            .collect();
-        if segments.len() + 1 > MAX_PLAN_SEGMENTS {
-            // Too many legs for the firmware's plan buffer: fly without a plan (hover to the
-            // cut-off from wherever the robot is).
-            segments.clear();
-        }
-        Ok(Box::new(Online {
-            est,
-            segments,
-            takeoff_s,
-            plan_set: false,
-            last: None,
-        }))
+        Ok((battery, config))
+    }
+
+    /// The rig curve and masses the filter is started with.
+    pub fn params(&self) -> &Params {
+        &self.params
     }
 }
 
-struct Online {
+/// The mission plan's legs as the estimator's segments; empty (fly without a plan: hover to
+/// the cut-off from wherever the robot is) when there are more legs than the firmware's plan
+/// buffer holds.
+pub fn plan_segments(plan: &[PlanLeg]) -> Vec<Segment> {
+    let mut segments: Vec<Segment> = plan
+        .iter()
+        .map(|l| match (l.attached, l.duration_s) {
+            (true, Some(d)) => Segment::Attached {
+                duration_min: d / 60.0,
+            },
+            (false, Some(d)) => Segment::Hover {
+                duration_min: d / 60.0,
+            },
+            (_, None) => Segment::HoverUntilEmpty,
+        })
+        .collect();
+    if segments.len() + 1 > MAX_PLAN_SEGMENTS {
+        segments.clear();
+    }
+    segments
+}
+
+impl OnlineBuilder for FileOnline {
+    fn build(
+        &self,
+        setup: &FlightSetup,
+        plan: &[PlanLeg],
+        takeoff_s: f64,
+    ) -> Result<Box<dyn OnlinePredictor>, String> {
+        let (battery, config) = self.flight_model(setup)?;
+        let est = OnlineEstimator::new(&self.params, &battery, &config)
+            .map_err(|e| format!("online estimator: {e}"))?;
+        Ok(Box::new(Online::new(est, plan_segments(plan), takeoff_s)))
+    }
+}
+
+/// The online estimator flying one flight sample by sample, with its mission plan set at the
+/// first sample.
+pub struct Online {
     est: OnlineEstimator,
     segments: Vec<Segment>,
     takeoff_s: f64,
     plan_set: bool,
     last: Option<estimator::online::Estimate>,
+    /// Outside readings of a state still to fuse, after the first valid sample
+    /// ([`OnlineEstimator::observe_state`]).
+    readings: Vec<(FilterState, f64, f64)>,
+}
+
+impl Online {
+    /// A filter, the plan's segments ([`plan_segments`]) and the take-off time.
+    pub fn new(est: OnlineEstimator, segments: Vec<Segment>, takeoff_s: f64) -> Self {
+        Self {
+            est,
+            segments,
+            takeoff_s,
+            plan_set: false,
+            last: None,
+            readings: Vec::new(),
+        }
+    }
+
+    /// Outside readings `(state, value, sigma)` fused once, right after the first valid
+    /// sample (a study's oracle; in the field, e.g. a charger's capacity measurement).
+    #[must_use]
+    pub fn with_readings(mut self, readings: Vec<(FilterState, f64, f64)>) -> Self {
+        self.readings = readings;
+        self
+    }
 }
 
 impl Predictor for Online {
@@ -211,6 +256,11 @@ impl Predictor for Online {
         });
         if !e.is_valid() {
             return None;
+        }
+        for (state, value, sigma) in self.readings.drain(..) {
+            // A value outside what the filter holds is clamped by it; an invalid one (not
+            // finite) leaves the state alone.
+            let _ = self.est.observe_state(state, value, sigma);
         }
         self.last = Some(e);
         Some(match (e.remaining_plan_s, e.remaining_plan_sigma_s) {
