@@ -142,6 +142,21 @@ pub struct PlanLeg {
     pub duration_s: Option<f64>,
 }
 
+impl PlanLeg {
+    /// The leg as the estimator's mission segment (eqs. 7–9).
+    pub fn segment(&self) -> Segment {
+        match (self.attached, self.duration_s) {
+            (true, Some(d)) => Segment::Attached {
+                duration_min: d / 60.0,
+            },
+            (false, Some(d)) => Segment::Hover {
+                duration_min: d / 60.0,
+            },
+            (_, None) => Segment::HoverUntilEmpty,
+        }
+    }
+}
+
 /// The mission plan of a flight (see [`PlanLeg`]); a flight without phases is one open leg.
 pub fn mission_plan(flight: &Flight, span: &FlightSpan) -> Vec<PlanLeg> {
     let s = &flight.samples;
@@ -545,18 +560,7 @@ impl StaticModel {
             mass_kg: setup.payload_mass_kg,
             power_w: setup.payload_power_w,
         };
-        let segments: Vec<Segment> = plan
-            .iter()
-            .map(|l| match (l.attached, l.duration_s) {
-                (true, Some(d)) => Segment::Attached {
-                    duration_min: d / 60.0,
-                },
-                (false, Some(d)) => Segment::Hover {
-                    duration_min: d / 60.0,
-                },
-                (_, None) => Segment::HoverUntilEmpty,
-            })
-            .collect();
+        let segments: Vec<Segment> = plan.iter().map(PlanLeg::segment).collect();
         let (summary, _) = model
             .evaluate_mission_vec(&battery, &payload, &segments, &MissionOptions::default())
             .map_err(|e| e.to_string())?;

@@ -164,18 +164,7 @@ impl FileOnline {
 /// the cut-off from wherever the robot is) when there are more legs than the firmware's plan
 /// buffer holds.
 pub fn plan_segments(plan: &[PlanLeg]) -> Vec<Segment> {
-    let mut segments: Vec<Segment> = plan
-        .iter()
-        .map(|l| match (l.attached, l.duration_s) {
-            (true, Some(d)) => Segment::Attached {
-                duration_min: d / 60.0,
-            },
-            (false, Some(d)) => Segment::Hover {
-                duration_min: d / 60.0,
-            },
-            (_, None) => Segment::HoverUntilEmpty,
-        })
-        .collect();
+    let mut segments: Vec<Segment> = plan.iter().map(PlanLeg::segment).collect();
     if segments.len() + 1 > MAX_PLAN_SEGMENTS {
         segments.clear();
     }
