@@ -4,9 +4,13 @@
 //! cell's open-circuit voltage is the positive electrode's potential minus the negative
 //! electrode's: `U(s) = U_p(y(s)) − U_n(x(s))`, with the negative stoichiometry `x` running from
 //! `x0` (empty) to `x100` (full) and the positive `y` the other way, from `y0` down to `y100`.
-//! Each pack draws its own negative window; the positive limits are then solved so that the
-//! cell reads the chemistry's full and empty voltages (with a little per-pack scatter), as
-//! electrode state-of-health algorithms do. LiFePO4 uses a Nernst-type formula with Shepherd
+//! Charge is conserved between the electrodes: each chemistry has one balance (the ratio of the
+//! electrodes' capacities, from its textbook window), so `x` and `y` move on one line whose
+//! offset is the lithium the pack can cycle. A pack draws its own lithium inventory, and its
+//! full and empty points are where the cell then reads the chemistry's full and empty voltages
+//! (with a little per-pack scatter), as electrode state-of-health algorithms do. A voltage
+//! the electrodes cannot reach is an error ([`OcvOutOfRange`]), never a clamp. LiFePO4 uses a
+//! Nernst-type formula with Shepherd
 //! exponential zones at both ends.
 
 use crate::Chemistry;
@@ -80,6 +84,16 @@ pub struct OcvScatter {
 }
 
 impl OcvScatter {
+    /// One pack's draw as the simulator makes it: σ 1 % lithium inventory (negative-electrode
+    /// stoichiometry), σ 6 mV charger error, σ 20 mV empty-voltage offset.
+    pub fn draw(rng: &mut rand_chacha::ChaCha8Rng) -> Self {
+        Self {
+            window_shift: 0.01 * crate::normal(rng),
+            full_offset_v: 0.006 * crate::normal(rng),
+            empty_offset_v: 0.02 * crate::normal(rng),
+        }
+    }
+
     /// No scatter.
     pub const NONE: Self = Self {
         window_shift: 0.0,
@@ -98,52 +112,150 @@ pub struct OcvCurve {
 /// Points of the table.
 const GRID: usize = 401;
 
+/// A pack's scatter asks for a voltage its electrodes cannot reach.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error(
+    "{chemistry:?} pack: a cell voltage of {target_v:.4} V lies outside what its electrodes reach \
+     on their lithium line ({lo_v:.4}–{hi_v:.4} V)"
+)]
+pub struct OcvOutOfRange {
+    /// The pack's chemistry.
+    pub chemistry: Chemistry,
+    /// The full or empty voltage asked for, V.
+    pub target_v: f64,
+    /// The lowest cell voltage reachable, V.
+    pub lo_v: f64,
+    /// The highest cell voltage reachable, V.
+    pub hi_v: f64,
+}
+
+/// The electrode pair of a layered-oxide chemistry and its charge balance.
+///
+/// Charge is conserved between the electrodes: with capacities `Q_n` and `Q_p`, the lithium a
+/// pack can cycle fixes `Q_n·x + Q_p·y`, so the stoichiometries move on the line
+/// `y = c − r·x` with `r = Q_n / Q_p`. The ratio `r` is the chemistry's (one balance per
+/// chemistry, from its textbook window); `c` is the pack's lithium inventory.
+struct Oxide {
+    pos: Electrode,
+    neg: Electrode,
+    /// `Q_n / Q_p`.
+    ratio: f64,
+    /// The textbook pack's `c`.
+    inventory: f64,
+}
+
+impl Oxide {
+    fn new(chem: Chemistry) -> Self {
+        let (pos, neg, x0, x100) = match chem {
+            Chemistry::LiPo => (LICO2, GRAPHITE_AI, 0.02, 0.82),
+            Chemistry::LiHv => (NCO, GRAPHITE_ECKER, 0.02, 0.85),
+            Chemistry::Nmc => (NMC, GRAPHITE_CHEN, 0.03, 0.90),
+            _ => (NCA, GRAPHITE_CHEN, 0.03, 0.88),
+        };
+        let (pos, neg) = (Electrode::parse(pos), Electrode::parse(neg));
+        let (v_full, v_empty) = chem.full_empty_cell_v();
+        // The textbook window: the positive stoichiometries that read the chemistry's full and
+        // empty voltages at the negative window's ends (U_p falls as y grows).
+        let solve_y = |target: f64| {
+            let (mut lo, mut hi) = (pos.sto[0], pos.sto[pos.sto.len() - 1]);
+            for _ in 0..80 {
+                let mid = 0.5 * (lo + hi);
+                if pos.at(mid) > target {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            0.5 * (lo + hi)
+        };
+        let y100 = solve_y(v_full + neg.at(x100));
+        let y0 = solve_y(v_empty + neg.at(x0));
+        let ratio = (y0 - y100) / (x100 - x0);
+        Self {
+            inventory: y0 + ratio * x0,
+            pos,
+            neg,
+            ratio,
+        }
+    }
+
+    /// The negative stoichiometries on the line `y = c − r·x` that both electrodes' tables
+    /// cover.
+    fn domain(&self, inventory: f64) -> (f64, f64) {
+        let (n, p) = (&self.neg.sto, &self.pos.sto);
+        let lo = n[0].max((inventory - p[p.len() - 1]) / self.ratio);
+        let hi = n[n.len() - 1].min((inventory - p[0]) / self.ratio);
+        (lo, hi)
+    }
+
+    /// Cell voltage at negative stoichiometry `x` on the line of `inventory`, V (rises with x).
+    fn cell_v(&self, inventory: f64, x: f64) -> f64 {
+        self.pos.at(inventory - self.ratio * x) - self.neg.at(x)
+    }
+
+    /// The `x` on the line where the cell reads `target`, or why there is none.
+    fn x_at(&self, chem: Chemistry, inventory: f64, target: f64) -> Result<f64, OcvOutOfRange> {
+        let (mut lo, mut hi) = self.domain(inventory);
+        let (lo_v, hi_v) = (self.cell_v(inventory, lo), self.cell_v(inventory, hi));
+        if !(lo < hi && lo_v <= target && target <= hi_v) {
+            return Err(OcvOutOfRange {
+                chemistry: chem,
+                target_v: target,
+                lo_v,
+                hi_v,
+            });
+        }
+        for _ in 0..80 {
+            let mid = 0.5 * (lo + hi);
+            if self.cell_v(inventory, mid) < target {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        Ok(0.5 * (lo + hi))
+    }
+}
+
 impl OcvCurve {
     /// The curve of one pack of `chem` with its scatter.
+    ///
+    /// # Panics
+    /// If the scatter asks for a voltage the electrodes cannot reach (see [`Self::try_new`]);
+    /// never for [`OcvScatter::NONE`].
     pub fn new(chem: Chemistry, scatter: OcvScatter) -> Self {
+        match Self::try_new(chem, scatter) {
+            Ok(c) => c,
+            Err(e) => panic!("{e}"),
+        }
+    }
+
+    /// The curve of one pack of `chem` with its scatter, or the voltage it cannot reach.
+    ///
+    /// Layered oxides: the pack's lithium inventory moves the electrodes along their
+    /// charge-conserving line by `window_shift` (in negative-electrode stoichiometry); the
+    /// pack's full and empty points are where the cell then reads the chemistry's full and
+    /// empty voltages plus the pack's offsets. LiFePO4: the formula, shifted by the scatter.
+    pub fn try_new(chem: Chemistry, scatter: OcvScatter) -> Result<Self, OcvOutOfRange> {
         let volts = match chem {
             Chemistry::LiFePo4 => (0..GRID)
                 .map(|k| lfp_cell_v(k as f64 / (GRID - 1) as f64, scatter))
                 .collect(),
             _ => {
-                let (pos, neg, x0, x100) = match chem {
-                    Chemistry::LiPo => (LICO2, GRAPHITE_AI, 0.02, 0.82),
-                    Chemistry::LiHv => (NCO, GRAPHITE_ECKER, 0.02, 0.85),
-                    Chemistry::Nmc => (NMC, GRAPHITE_CHEN, 0.03, 0.90),
-                    _ => (NCA, GRAPHITE_CHEN, 0.03, 0.88),
-                };
-                let (pos, neg) = (Electrode::parse(pos), Electrode::parse(neg));
+                let ox = Oxide::new(chem);
                 let (v_full, v_empty) = chem.full_empty_cell_v();
-                let x0 = x0 + scatter.window_shift.max(-x0 + 1e-3);
-                let x100 = (x100 + scatter.window_shift).min(0.99);
-                let v_full = v_full + scatter.full_offset_v;
-                let v_empty = v_empty + scatter.empty_offset_v;
-                // The positive potential falls as y grows: solve U_p(y) = target by bisection.
-                let solve = |target: f64| {
-                    let (mut lo, mut hi) = (pos.sto[0], pos.sto[pos.sto.len() - 1]);
-                    for _ in 0..60 {
-                        let mid = 0.5 * (lo + hi);
-                        if pos.at(mid) > target {
-                            lo = mid;
-                        } else {
-                            hi = mid;
-                        }
-                    }
-                    0.5 * (lo + hi)
-                };
-                let y100 = solve(v_full + neg.at(x100));
-                let y0 = solve(v_empty + neg.at(x0));
+                let inventory = ox.inventory + ox.ratio * scatter.window_shift;
+                let x0 = ox.x_at(chem, inventory, v_empty + scatter.empty_offset_v)?;
+                let x100 = ox.x_at(chem, inventory, v_full + scatter.full_offset_v)?;
                 (0..GRID)
                     .map(|k| {
                         let s = k as f64 / (GRID - 1) as f64;
-                        let x = x0 + s * (x100 - x0);
-                        let y = y0 + s * (y100 - y0);
-                        pos.at(y) - neg.at(x)
+                        ox.cell_v(inventory, x0 + s * (x100 - x0))
                     })
                     .collect()
             }
         };
-        Self { volts }
+        Ok(Self { volts })
     }
 
     /// Open-circuit voltage at state of charge `soc` (0 empty, 1 full; clamped), V.
@@ -219,6 +331,69 @@ mod tests {
         };
         assert!(span(Chemistry::LiFePo4) < 0.1);
         assert!(span(Chemistry::Nmc) > 0.2);
+    }
+
+    /// Every drawn pack (the simulator's scatter: σ 1 % lithium inventory, 6 mV charger, 20 mV
+    /// empty) reads its own full and empty voltages, falls monotonically and stays near its
+    /// chemistry's curve: a 1 % inventory shift is a few millivolts, not a cliff.
+    #[test]
+    fn drawn_packs_stay_physical() {
+        use rand::SeedableRng;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0x0c5);
+        for chem in Chemistry::ALL {
+            if chem == Chemistry::LiFePo4 {
+                continue;
+            }
+            let nominal = OcvCurve::new(chem, OcvScatter::NONE);
+            let wiggle = nominal
+                .volts
+                .windows(2)
+                .map(|w| w[0] - w[1])
+                .fold(0.0, f64::max);
+            assert!(wiggle < 2e-3, "{chem:?} textbook curve rises by {wiggle}");
+            let (full, empty) = chem.full_empty_cell_v();
+            let mut worst = 0.0f64;
+            for _ in 0..200 {
+                let sc = OcvScatter::draw(&mut rng);
+                let c = OcvCurve::try_new(chem, sc).unwrap_or_else(|e| panic!("{sc:?}: {e}"));
+                assert!(
+                    (c.at(1.0) - full - sc.full_offset_v).abs() < 1e-3,
+                    "{chem:?} {sc:?}"
+                );
+                assert!(
+                    (c.at(0.0) - empty - sc.empty_offset_v).abs() < 1e-3,
+                    "{chem:?} {sc:?}"
+                );
+                // The measured electrode tables wiggle by under a millivolt (the textbook
+                // curve too); a pack must not rise more than that as it discharges.
+                for w in c.volts.windows(2) {
+                    assert!(
+                        w[1] >= w[0] - 2e-3,
+                        "{chem:?} {sc:?} rises by {}",
+                        w[0] - w[1]
+                    );
+                }
+                for k in 10..=95 {
+                    let s = f64::from(k) / 100.0;
+                    worst = worst.max((c.at(s) - nominal.at(s)).abs());
+                }
+            }
+            assert!(
+                worst < 0.05,
+                "{chem:?}: a pack {worst:.3} V off its chemistry"
+            );
+        }
+    }
+
+    #[test]
+    fn unreachable_voltages_are_errors_not_clamps() {
+        let far = OcvScatter {
+            window_shift: 0.0,
+            full_offset_v: 1.0,
+            empty_offset_v: 0.0,
+        };
+        let e = OcvCurve::try_new(Chemistry::Nmc, far).unwrap_err();
+        assert!((e.target_v - 5.2).abs() < 1e-9 && e.hi_v < 5.2, "{e}");
     }
 
     #[test]

@@ -9,7 +9,7 @@ use serde::Serialize;
 use crate::mission::{FlightPlan, HALL_CEILING_M, Leg, LoggedPhase};
 use crate::ocv::{OcvCurve, OcvScatter};
 use crate::robot::{GRAVITY_M_S2, RIG_AIR_DENSITY_KG_M3, Robot};
-use crate::world::{EffectKind, Family, Withheld};
+use crate::world::{Chemistry, EffectKind, Family, Withheld};
 use crate::{PackSpec, normal};
 
 /// Arrhenius temperature of the cells' resistance, K.
@@ -93,12 +93,7 @@ struct Pack {
 impl Pack {
     fn new(family: &Family, spec: &PackSpec, rng: &mut ChaCha8Rng, fade: f64) -> Self {
         let chem = family.chemistry;
-        let scatter = OcvScatter {
-            window_shift: 0.01 * normal(rng),
-            full_offset_v: 0.006 * normal(rng),
-            empty_offset_v: 0.02 * normal(rng),
-        };
-        let ocv = OcvCurve::new(chem, scatter);
+        let ocv = draw_ocv(chem, rng);
         let cells = f64::from(chem.cells());
         // The rated energy is the maker's; the pack holds within a few percent of it.
         let capacity_ah = spec.energy_wh / (cells * ocv.mean_v())
@@ -117,6 +112,18 @@ impl Pack {
             ocv,
             cells,
             capacity_ah,
+        }
+    }
+}
+
+/// One pack's open-circuit curve: its chemistry's curve with a drawn [`OcvScatter`]. A draw the
+/// electrodes cannot reach (1 of 10⁵ NCA draws, none of 10⁵ of each other chemistry:
+/// `cargo run --release -p flight-sim --example pack_scatter 100000`) is drawn again, so every
+/// pack reads its own full and empty voltages.
+pub(crate) fn draw_ocv(chem: Chemistry, rng: &mut ChaCha8Rng) -> OcvCurve {
+    loop {
+        if let Ok(c) = OcvCurve::try_new(chem, OcvScatter::draw(rng)) {
+            return c;
         }
     }
 }
