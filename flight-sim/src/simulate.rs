@@ -117,16 +117,19 @@ impl Pack {
         let ocv = draw_ocv(chem, rng);
         let cells = f64::from(chem.cells());
         // The rated energy is the maker's; the pack holds within a few percent of it.
-        let capacity_ah = spec.energy_wh / (cells * ocv.mean_v())
-            * (1.0 + 0.025 * normal(rng)).clamp(0.9, 1.1)
-            * (1.0 - fade);
+        let built_ah =
+            spec.energy_wh / (cells * ocv.mean_v()) * (1.0 + 0.025 * normal(rng)).clamp(0.9, 1.1);
+        // The impedance scales with the cells' size (their capacity as built); a withheld
+        // capacity fade takes charge away, not conductance (a worn pack's resistance is the
+        // internal-resistance effect's).
         let imp = chem.impedance();
         let spread = (1.0 + 0.12 * normal(rng)).clamp(0.6, 1.5);
+        let capacity_ah = built_ah * (1.0 - fade);
         Self {
-            r0_ohm: imp.r0_ohm_ah / capacity_ah * spread,
+            r0_ohm: imp.r0_ohm_ah / built_ah * spread,
             rc: [
-                (imp.rc[0].0 / capacity_ah * spread, imp.rc[0].1),
-                (imp.rc[1].0 / capacity_ah * spread, imp.rc[1].1),
+                (imp.rc[0].0 / built_ah * spread, imp.rc[0].1),
+                (imp.rc[1].0 / built_ah * spread, imp.rc[1].1),
             ],
             hysteresis_v: imp.hysteresis_v,
             heat_capacity_j_k: spec.mass_kg * PACK_HEAT_J_KG_K,

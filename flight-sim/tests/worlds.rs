@@ -278,3 +278,26 @@ fn packs_discharge_past_their_rated_empty_to_the_cutoff() {
         );
     }
 }
+
+/// A withheld capacity fade takes charge away and nothing else: the flown pack's impedance is
+/// the same with and without it, and the one `pack_truths` reports for the oracle studies.
+#[test]
+fn capacity_fade_changes_the_capacity_not_the_impedance() {
+    use flight_sim::{Robot, SensorErrors, pack_truth, plans, simulate_with_truth};
+    let fam = family(Chemistry::Nmc, Logging::Fc10Hz);
+    let robot = Robot::of(fam.robot, 4);
+    let (tp, _) = plans(&fam, 4);
+    let fade = Withheld {
+        kind: EffectKind::CapacityFade,
+        magnitude: 0.2,
+    };
+    let fly =
+        |e: &Withheld| simulate_with_truth(&fam, &robot, &tp[0], e, 77, SensorErrors::Drawn).1;
+    let (faded, fresh) = (fly(&fade), fly(&Withheld::NONE));
+    assert!((faded.capacity_ah / fresh.capacity_ah - 0.8).abs() < 1e-12);
+    assert_eq!(faded.r0_cell_ohm_25c, fresh.r0_cell_ohm_25c);
+    assert_eq!(faded.rc_cell_25c, fresh.rc_cell_25c);
+    let told = pack_truth(&fam, &tp[0], 77);
+    let cells = f64::from(told.cells);
+    assert!((told.series_resistance_ohm - cells * faded.r0_cell_ohm_25c).abs() < 1e-15);
+}
