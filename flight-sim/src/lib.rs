@@ -47,8 +47,8 @@ use serde::Serialize;
 pub use mission::{FlightPlan, HALL_CEILING_M, Leg, plans};
 pub use robot::{Propulsion, Robot};
 pub use simulate::{
-    FlightTruth, PackTruth, SensorErrors, SimFlight, pack_truth, simulate, simulate_with,
-    simulate_with_truth,
+    FlightEnd, FlightTruth, PackTruth, SensorErrors, SimFlight, pack_truth, simulate,
+    simulate_with, simulate_with_truth,
 };
 pub use world::{Chemistry, EffectKind, Family, Logging, NoFamily, RobotVariant, Withheld};
 

@@ -102,11 +102,18 @@ impl OcvScatter {
     };
 }
 
-/// A cell's open-circuit curve as a table on a uniform state-of-charge grid.
+/// A cell's open-circuit curve as a table on a uniform state-of-charge grid, from full (1) to
+/// the rated empty (0), and on below the rated empty while the electrodes still hold lithium.
 #[derive(Debug, Clone, PartialEq)]
 pub struct OcvCurve {
     /// Open-circuit voltage at state of charge `k / (n − 1)`, V.
     volts: Vec<f64>,
+    /// Below the rated empty: the voltage at state of charge `−(k + 1) / (n − 1)`, V, down to
+    /// where the electrodes run out.
+    below_empty: Vec<f64>,
+    /// The state of charge at which the electrodes are exhausted (no charge is left to draw);
+    /// at most 0 for the layered oxides, above 0 for a LiFePO₄ pack whose window starts late.
+    exhausted_soc: f64,
 }
 
 /// Points of the table.
@@ -236,34 +243,89 @@ impl OcvCurve {
     /// charge-conserving line by `window_shift` (in negative-electrode stoichiometry); the
     /// pack's full and empty points are where the cell then reads the chemistry's full and
     /// empty voltages plus the pack's offsets. LiFePO4: the formula, shifted by the scatter.
+    ///
+    /// The rated empty is not the end of the cell: below it the curve goes on along the same
+    /// electrodes (falling steeply) until they run out ([`Self::exhausted_soc`]), so a pack
+    /// discharged past its rated empty keeps falling towards its autopilot's cut-off.
     pub fn try_new(chem: Chemistry, scatter: OcvScatter) -> Result<Self, OcvOutOfRange> {
-        let volts = match chem {
-            Chemistry::LiFePo4 => (0..GRID)
-                .map(|k| lfp_cell_v(k as f64 / (GRID - 1) as f64, scatter))
-                .collect(),
+        let step = 1.0 / (GRID - 1) as f64;
+        let (volts, below_empty, exhausted_soc) = match chem {
+            Chemistry::LiFePo4 => {
+                // The formula's window ends where `soc + window_shift` reaches its lowest
+                // stoichiometry: the electrode's lithium is used up there.
+                let exhausted = LFP_LOWEST_STO - scatter.window_shift;
+                let below: Vec<f64> = (1..)
+                    .map(|k| -(k as f64) * step)
+                    .take_while(|s| *s >= exhausted)
+                    .map(|s| lfp_cell_v(s, scatter))
+                    .collect();
+                let volts = (0..GRID)
+                    .map(|k| lfp_cell_v(k as f64 * step, scatter))
+                    .collect();
+                let exhausted = exhausted.max(-(below.len() as f64) * step);
+                (volts, below, exhausted)
+            }
             _ => {
                 let ox = Oxide::new(chem);
                 let (v_full, v_empty) = chem.full_empty_cell_v();
                 let inventory = ox.inventory + ox.ratio * scatter.window_shift;
                 let x0 = ox.x_at(chem, inventory, v_empty + scatter.empty_offset_v)?;
                 let x100 = ox.x_at(chem, inventory, v_full + scatter.full_offset_v)?;
-                (0..GRID)
-                    .map(|k| {
-                        let s = k as f64 / (GRID - 1) as f64;
-                        ox.cell_v(inventory, x0 + s * (x100 - x0))
-                    })
-                    .collect()
+                let x_of = |s: f64| x0 + s * (x100 - x0);
+                let (x_lowest, _) = ox.domain(inventory);
+                let below: Vec<f64> = (1..)
+                    .map(|k| -(k as f64) * step)
+                    .take_while(|s| x_of(*s) >= x_lowest)
+                    .map(|s| ox.cell_v(inventory, x_of(s)))
+                    .collect();
+                let volts = (0..GRID)
+                    .map(|k| ox.cell_v(inventory, x_of(k as f64 * step)))
+                    .collect();
+                let exhausted = -(below.len() as f64) * step;
+                (volts, below, exhausted)
             }
         };
-        Ok(Self { volts })
+        Ok(Self {
+            volts,
+            below_empty,
+            exhausted_soc,
+        })
     }
 
-    /// Open-circuit voltage at state of charge `soc` (0 empty, 1 full; clamped), V.
+    /// Open-circuit voltage at state of charge `soc` (0 rated empty, 1 full; above 1 the full
+    /// voltage; below 0 the curve below the rated empty, down to [`Self::exhausted_soc`] and
+    /// the last voltage there beyond it), V.
     pub fn at(&self, soc: f64) -> f64 {
-        let x = soc.clamp(0.0, 1.0) * (GRID - 1) as f64;
+        if soc < 0.0 {
+            let x = -soc * (GRID - 1) as f64;
+            let i = x.floor() as usize;
+            let f = x - i as f64;
+            let v = |k: usize| {
+                if k == 0 {
+                    self.volts[0]
+                } else {
+                    let below = &self.below_empty;
+                    below
+                        .get(k - 1)
+                        .or(below.last())
+                        .copied()
+                        .unwrap_or(self.volts[0])
+                }
+            };
+            return v(i) * (1.0 - f) + v(i + 1) * f;
+        }
+        let x = soc.min(1.0) * (GRID - 1) as f64;
         let i = (x.floor() as usize).min(GRID - 2);
         let f = x - i as f64;
         self.volts[i] * (1.0 - f) + self.volts[i + 1] * f
+    }
+
+    /// The state of charge at which the cell's electrodes are exhausted: no charge is left to
+    /// draw below it. At most 0 for the layered oxides (their electrodes reach below the rated
+    /// empty voltage); for LiFePO₄ `0.002 − window_shift`, above 0 for a pack whose window
+    /// starts late.
+    pub fn exhausted_soc(&self) -> f64 {
+        self.exhausted_soc
     }
 
     /// Mean open-circuit voltage over a full discharge, V (charge-weighted: energy per charge).
@@ -274,12 +336,15 @@ impl OcvCurve {
     }
 }
 
+/// The lowest (and `1 −` the highest) stoichiometry of the LiFePO₄ formula's window.
+const LFP_LOWEST_STO: f64 = 0.002;
+
 /// LiFePO4: a flat two-phase plateau with a Nernst term in the middle and Shepherd exponential
 /// zones where the electrodes run out of lithium sites at both ends, V.
 fn lfp_cell_v(soc: f64, scatter: OcvScatter) -> f64 {
     // RT/F at 298 K, V.
     const THERMAL_V: f64 = 0.025_693;
-    let s = (soc + scatter.window_shift).clamp(0.002, 0.998);
+    let s = (soc + scatter.window_shift).clamp(LFP_LOWEST_STO, 1.0 - LFP_LOWEST_STO);
     3.300 + 0.045 * (s - 0.5) + 0.5 * THERMAL_V * (s / (1.0 - s)).ln()
         - (0.45 - scatter.empty_offset_v) * (-s / 0.035).exp()
         + (0.19 + scatter.full_offset_v) * (-(1.0 - s) / 0.025).exp()
@@ -382,6 +447,50 @@ mod tests {
                 worst < 0.05,
                 "{chem:?}: a pack {worst:.3} V off its chemistry"
             );
+        }
+    }
+
+    /// The rated empty is not the end of a cell: below it every drawn pack's curve goes on
+    /// falling along its electrodes, past its autopilot's cut-off (a loaded cut-off, so the
+    /// open-circuit voltage must fall below it for any load to reach it) before the
+    /// electrodes run out; no stretch of it is flat (a clamp would be).
+    #[test]
+    fn curves_go_on_below_the_rated_empty_until_the_electrodes_run_out() {
+        use rand::SeedableRng;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0xe4);
+        for chem in Chemistry::ALL {
+            for _ in 0..200 {
+                let sc = OcvScatter::draw(&mut rng);
+                let c = OcvCurve::try_new(chem, sc).unwrap_or_else(|e| panic!("{sc:?}: {e}"));
+                let end = c.exhausted_soc();
+                if chem == Chemistry::LiFePo4 {
+                    // The formula's window: exhausted where `soc + shift` reaches 0.002.
+                    assert!(
+                        (end - (LFP_LOWEST_STO - sc.window_shift)).abs() < 1.0 / 400.0,
+                        "{sc:?}: {end}"
+                    );
+                } else {
+                    assert!(end < 0.0, "{chem:?} {sc:?}: {end}");
+                    assert!(
+                        c.at(end) < chem.cutoff_cell_v() - 0.05,
+                        "{chem:?} {sc:?}: {} V where the electrodes run out",
+                        c.at(end)
+                    );
+                }
+                // From the electrodes' end up to 2 % above it, the curve rises step by step.
+                let h = 1.0 / 400.0;
+                let mut s = end;
+                let mut last = c.at(s);
+                while s < end + 0.02 {
+                    s += h;
+                    let v = c.at(s);
+                    assert!(
+                        v > last + 1e-4,
+                        "{chem:?} {sc:?}: flat at {s}: {v} after {last}"
+                    );
+                    last = v;
+                }
+            }
         }
     }
 

@@ -36,10 +36,27 @@ pub struct SimFlight {
     pub toml: String,
     /// True endurance: time from the start of the log to the landing, s.
     pub endurance_s: f64,
-    /// Whether the flight ended at the autopilot's cut-off (else the mission ended first).
+    /// Whether the flight ended at the autopilot's cut-off — its voltage reading or the rotors'
+    /// thrust limit — or with exhausted cells (else the mission ended first;
+    /// [`FlightTruth::end`] says which).
     pub ended_at_cutoff: bool,
     /// Logged samples.
     pub samples: usize,
+}
+
+/// How a flight ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FlightEnd {
+    /// The mission ended first: the robot landed with charge to spare.
+    Landed,
+    /// The autopilot's filtered voltage reading fell below its cut-off.
+    Cutoff,
+    /// The rotors could no longer carry the robot at the pack's voltage.
+    ThrustLimit,
+    /// The pack's electrodes ran out of charge ([`OcvCurve::exhausted_soc`]), or it could no
+    /// longer deliver the power asked of it.
+    Exhausted,
 }
 
 /// What one flight really was, beside its log: the pack it flew (curve, capacity, impedance,
@@ -48,8 +65,9 @@ pub struct SimFlight {
 /// flight's files, so nothing that reads them can see it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FlightTruth {
-    /// The pack's open-circuit curve of one cell (on its own state-of-charge axis: 0 empty,
-    /// 1 full, over [`Self::capacity_ah`]).
+    /// The pack's open-circuit curve of one cell (on its own state-of-charge axis: 0 rated
+    /// empty, 1 full, over [`Self::capacity_ah`]; below 0 down to
+    /// [`OcvCurve::exhausted_soc`]).
     pub ocv: OcvCurve,
     /// Cells in series.
     pub cells: u8,
@@ -57,8 +75,11 @@ pub struct FlightTruth {
     pub capacity_ah: f64,
     /// State of charge at the first sample.
     pub start_soc: f64,
-    /// State of charge when the flight ended (at the cut-off: the charge the pack still held).
+    /// State of charge when the flight ended (at the cut-off: the charge the pack still held;
+    /// below 0 when it was discharged past its rated empty).
     pub end_soc: f64,
+    /// How the flight ended.
+    pub end: FlightEnd,
     /// Series resistance of one cell at 25 °C, Ω.
     pub r0_cell_ohm_25c: f64,
     /// The cell's two RC pairs at 25 °C: (Ω, s).
@@ -96,16 +117,19 @@ impl Pack {
         let ocv = draw_ocv(chem, rng);
         let cells = f64::from(chem.cells());
         // The rated energy is the maker's; the pack holds within a few percent of it.
-        let capacity_ah = spec.energy_wh / (cells * ocv.mean_v())
-            * (1.0 + 0.025 * normal(rng)).clamp(0.9, 1.1)
-            * (1.0 - fade);
+        let built_ah =
+            spec.energy_wh / (cells * ocv.mean_v()) * (1.0 + 0.025 * normal(rng)).clamp(0.9, 1.1);
+        // The impedance scales with the cells' size (their capacity as built); a withheld
+        // capacity fade takes charge away, not conductance (a worn pack's resistance is the
+        // internal-resistance effect's).
         let imp = chem.impedance();
         let spread = (1.0 + 0.12 * normal(rng)).clamp(0.6, 1.5);
+        let capacity_ah = built_ah * (1.0 - fade);
         Self {
-            r0_ohm: imp.r0_ohm_ah / capacity_ah * spread,
+            r0_ohm: imp.r0_ohm_ah / built_ah * spread,
             rc: [
-                (imp.rc[0].0 / capacity_ah * spread, imp.rc[0].1),
-                (imp.rc[1].0 / capacity_ah * spread, imp.rc[1].1),
+                (imp.rc[0].0 / built_ah * spread, imp.rc[0].1),
+                (imp.rc[1].0 / built_ah * spread, imp.rc[1].1),
             ],
             hysteresis_v: imp.hysteresis_v,
             heat_capacity_j_k: spec.mass_kg * PACK_HEAT_J_KG_K,
@@ -350,6 +374,7 @@ pub(crate) fn run(
     let mut last_v = pack.cells * pack.ocv.at(soc);
     let mut drop_left = 0usize;
     let mut ended = false;
+    let mut end = FlightEnd::Landed;
     // Sums for the truth: airborne time-weighted cell temperature, series resistance, power;
     // hover power.
     let (mut air_k, mut air_r, mut air_w) = (0.0_f64, 0.0_f64, 0.0_f64);
@@ -421,8 +446,11 @@ pub(crate) fn run(
             let r = pack.cells * r_cell + extra_r;
             let e = pack.cells * (pack.ocv.at(soc) + hyst - v_rc[0] - v_rc[1]);
             let disc = e * e - 4.0 * r * load_w;
-            if disc < 0.0 || soc <= 0.0 {
+            // Past the rated empty (state of charge 0) the cells go on along their curve; only
+            // exhausted electrodes end a flight that the autopilot has not landed.
+            if disc < 0.0 || soc <= pack.ocv.exhausted_soc() {
                 ended = true;
+                end = FlightEnd::Exhausted;
                 break 'legs;
             }
             let i = (e - disc.sqrt()) / (2.0 * r);
@@ -437,6 +465,11 @@ pub(crate) fn run(
             };
             if v_filtered < cutoff_v || (flying && prop.max_thrust_g(v) < thrust_g) {
                 ended = true;
+                end = if v_filtered < cutoff_v {
+                    FlightEnd::Cutoff
+                } else {
+                    FlightEnd::ThrustLimit
+                };
                 break 'legs;
             }
             last_v = v;
@@ -554,6 +587,7 @@ pub(crate) fn run(
         capacity_ah: pack.capacity_ah,
         start_soc,
         end_soc: soc,
+        end,
         r0_cell_ohm_25c: pack.r0_ohm,
         rc_cell_25c: pack.rc,
         extra_resistance_ohm: extra_r,

@@ -230,3 +230,74 @@ fn pack_truths_are_the_packs_the_flights_fly() {
         }
     }
 }
+
+/// A LiPo or LiHV pack's rated empty (3.30 V open circuit) lies above its autopilot's loaded
+/// cut-off (3.0 V a cell): the flight must go on past it to the cut-off (or the thrust limit),
+/// not stop at the edge of the curve's table with the last logged voltage 0.2 V a cell above
+/// the cut-off its metadata names.
+#[test]
+fn packs_discharge_past_their_rated_empty_to_the_cutoff() {
+    use flight_sim::{FlightEnd, Robot, SensorErrors, plans, simulate_with_truth};
+    for chem in [Chemistry::LiPo, Chemistry::LiHv] {
+        let fam = family(chem, Logging::Lab1Hz);
+        let mut above_mv = Vec::new();
+        for seed in 0..2 {
+            let robot = Robot::of(fam.robot, seed);
+            let (tp, hp) = plans(&fam, seed);
+            for (k, p) in tp.iter().chain(&hp).enumerate() {
+                let (f, t) = simulate_with_truth(
+                    &fam,
+                    &robot,
+                    p,
+                    &Withheld::NONE,
+                    seed * 1000 + k as u64,
+                    SensorErrors::Ideal,
+                );
+                assert!(
+                    matches!(t.end, FlightEnd::Cutoff | FlightEnd::ThrustLimit),
+                    "{chem:?} seed {seed} {}: {:?} at state of charge {}",
+                    f.name,
+                    t.end,
+                    t.end_soc
+                );
+                let last_v: f64 = f
+                    .csv
+                    .lines()
+                    .last()
+                    .and_then(|l| l.split(',').nth(1))
+                    .and_then(|v| v.parse().ok())
+                    .unwrap();
+                above_mv.push(1e3 * (last_v / f64::from(chem.cells()) - chem.cutoff_cell_v()));
+            }
+        }
+        above_mv.sort_by(f64::total_cmp);
+        let median = above_mv[above_mv.len() / 2];
+        assert!(
+            median < 60.0,
+            "{chem:?}: median last voltage {median:.0} mV a cell above the cut-off"
+        );
+    }
+}
+
+/// A withheld capacity fade takes charge away and nothing else: the flown pack's impedance is
+/// the same with and without it, and the one `pack_truths` reports for the oracle studies.
+#[test]
+fn capacity_fade_changes_the_capacity_not_the_impedance() {
+    use flight_sim::{Robot, SensorErrors, pack_truth, plans, simulate_with_truth};
+    let fam = family(Chemistry::Nmc, Logging::Fc10Hz);
+    let robot = Robot::of(fam.robot, 4);
+    let (tp, _) = plans(&fam, 4);
+    let fade = Withheld {
+        kind: EffectKind::CapacityFade,
+        magnitude: 0.2,
+    };
+    let fly =
+        |e: &Withheld| simulate_with_truth(&fam, &robot, &tp[0], e, 77, SensorErrors::Drawn).1;
+    let (faded, fresh) = (fly(&fade), fly(&Withheld::NONE));
+    assert!((faded.capacity_ah / fresh.capacity_ah - 0.8).abs() < 1e-12);
+    assert_eq!(faded.r0_cell_ohm_25c, fresh.r0_cell_ohm_25c);
+    assert_eq!(faded.rc_cell_25c, fresh.rc_cell_25c);
+    let told = pack_truth(&fam, &tp[0], 77);
+    let cells = f64::from(told.cells);
+    assert!((told.series_resistance_ohm - cells * faded.r0_cell_ohm_25c).abs() < 1e-15);
+}
