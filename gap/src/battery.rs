@@ -62,9 +62,9 @@
 //! not teach is listed in [`BatteryFit::warnings`] ([`plausibility`]): one flight, charge no
 //! flight visited (and whether it lies below the cut-off, where it is never used), knots
 //! pulled beyond the prior's band, no RC pair; `hoverbench battery learn` prints them. A
-//! LiFePO₄ pack learned from one hover flight (flight-sim `lfp/fc-10hz/varied` seed 3) shows
-//! 1.59 V per cell at 0 %: that is the prior's own end (1.56 V, the electrodes' limit in the
-//! Afshar formula's window), kept below the 6 % the flight reached, under its cut-off. The
+//! LiFePO₄ pack learned from one hover flight (flight-sim `lfp/fc-10hz/varied` seed 20) shows
+//! 1.48 V per cell at 0 %: that is the prior's shape (its own end, the electrodes' limit in
+//! the Afshar formula's window, is 1.56 V), kept below the 11 % the flight reached. The
 //! diagnosis's baseline
 //! takes the learned series resistance up to the nominal (5 mΩ per cell): resistance above it
 //! stays a diagnosable effect (`internal_resistance`) instead of vanishing into the battery; the
