@@ -172,7 +172,10 @@ impl Chemistry {
     ///
     /// The spread is a factor 2 either way for every chemistry (the ranges above: power cells
     /// at the low end, energy cells at the high end; manufacturing scatter within one cell type
-    /// is some per cent).
+    /// is some per cent). Only the 25R's datasheet figure and the hobby LiPo range were checked
+    /// against their sources when these values were set (session 11); the other cells' figures
+    /// are as recalled from their datasheets and tests, and a re-read may move the typical
+    /// values within their factor-2 band.
     pub fn healthy_resistance(self) -> Option<HealthyResistance> {
         let (typical_ohm_ah, spread_factor) = match self {
             Chemistry::Lipo | Chemistry::Lihv => (0.012, 2.0),
