@@ -17,7 +17,9 @@
 //!
 //! A measured series resistance or RC pair has no door: the diagnosis learns both even with a
 //! measured curve (and its baseline holds the series resistance at the nominal 5 mΩ per cell at
-//! most), so an `ocv+r` variant cannot be run without changing the diagnosis.
+//! most; a measured curve does not say the chemistry, so any extra resistance is named, without
+//! the healthy band of `gap::model::healthy_cell_resistance_ohm`), so an `ocv+r` variant cannot
+//! be run without changing the diagnosis.
 //!
 //! The reverse question, how far the learned curve is from the truth's, is
 //! [`curve_errors`]: per battery type, the learned curve against the mean of the type's training

@@ -68,7 +68,10 @@
 //! diagnosis's baseline
 //! takes the learned series resistance up to the nominal (5 mΩ per cell): resistance above it
 //! stays a diagnosable effect (`internal_resistance`) instead of vanishing into the battery; the
-//! learned value is reported either way.
+//! learned value is reported either way. The effect is named only when the model's resistance
+//! is above what a healthy pack of the fit's chemistry and rated capacity has
+//! ([`Chemistry::healthy_resistance`], published cell data in Ω·Ah per cell; the nominal for a
+//! measured curve or an unknown capacity; [`crate::diagnose::healthy_resistance`]).
 //!
 //! [`LearnedBattery`] is plain data of fixed size (`f64` fields and arrays), so it can be stored
 //! in a parameter file and read by a `no_std` in-flight estimator.
@@ -137,9 +140,53 @@ impl Chemistry {
     }
 
     /// Nominal series resistance of one cell, Ω (PX4's default estimate, 5 mΩ per cell, for
-    /// every chemistry: the pack's rating does not say more).
+    /// every chemistry): the prior's starting value and the baseline's cap (what a healthy pack
+    /// of a given size has, against which `internal_resistance` is named, is
+    /// [`Self::healthy_resistance`]).
     pub fn nominal_cell_resistance_ohm(self) -> f64 {
         crate::model::NOMINAL_CELL_RESISTANCE_OHM
+    }
+
+    /// The series resistance a healthy cell of this chemistry has, per rated capacity (a cell's
+    /// resistance falls as its electrode area, and so its capacity, grows; cells in parallel
+    /// divide it the same way, so `R × C` of one series group of a pack is that of its cells).
+    /// `None` for [`Chemistry::Measured`]: a curve from a file does not say the chemistry.
+    ///
+    /// The values are the DC resistance of published cells (a pulse of about a second, the
+    /// series resistance the fit learns beside its RC pair; a charger's or an AC 1 kHz meter's
+    /// reading is its lower end), at room temperature and mid charge, new cells:
+    ///
+    /// - **LiPo and LiHV** (LiCoO₂ pouch packs of hobby drones, high-rate): new packs read
+    ///   1–4 mΩ per cell at 3–5 Ah and about 5–8 mΩ at 2.2 Ah on hobby chargers' DC test
+    ///   (rchelicopterfun.com "LiPo internal resistance", 2023; the same order in the DC pulse
+    ///   measurements of thejumperwire.com "LiPo characteristics part 3"), i.e. 0.005–0.02 Ω·Ah;
+    ///   typical 0.012 Ω·Ah. LiHV cells are built the same way.
+    /// - **Li-ion NMC and NCA** (cylindrical 18650/21700 cells): Samsung INR18650-25R datasheet
+    ///   ≤ 18 mΩ AC 1 kHz at 2.5 Ah (0.045 Ω·Ah, AC: the DC value is higher); high-rate 21700s
+    ///   (Molicel P42A, Samsung 50S) about 12–15 mΩ DC at 4.2–5 Ah (0.06 Ω·Ah); energy cells
+    ///   (LG M50, Panasonic NCR18650B) 25–60 mΩ DC at 3.4–5 Ah (0.12–0.2 Ω·Ah). Typical
+    ///   0.08 Ω·Ah; the cell's format and rate, not its cathode, sets the spread.
+    /// - **LiFePO₄**: A123 ANR26650M1B datasheet about 6 mΩ AC 1 kHz typical at 2.5 Ah, about
+    ///   10 mΩ DC (0.025 Ω·Ah); energy-type LFP 18650/32700 cells (1.5–6 Ah) 0.05–0.07 Ω·Ah DC.
+    ///   Typical 0.035 Ω·Ah.
+    ///
+    /// The spread is a factor 2 either way for every chemistry (the ranges above: power cells
+    /// at the low end, energy cells at the high end; manufacturing scatter within one cell type
+    /// is some per cent). Only the 25R's datasheet figure and the hobby LiPo range were checked
+    /// against their sources when these values were set (session 11); the other cells' figures
+    /// are as recalled from their datasheets and tests, and a re-read may move the typical
+    /// values within their factor-2 band.
+    pub fn healthy_resistance(self) -> Option<HealthyResistance> {
+        let (typical_ohm_ah, spread_factor) = match self {
+            Chemistry::Lipo | Chemistry::Lihv => (0.012, 2.0),
+            Chemistry::LiIonNmc | Chemistry::LiIonNca => (0.08, 2.0),
+            Chemistry::Lifepo4 => (0.035, 2.0),
+            Chemistry::Measured => return None,
+        };
+        Some(HealthyResistance {
+            typical_ohm_ah,
+            spread_factor,
+        })
     }
 
     /// The prior battery: the chemistry's open-circuit curve, nominal resistance, no RC pair.
@@ -207,6 +254,32 @@ impl Chemistry {
             rc_resistance_cell_ohm: 0.0,
             rc_time_constant_s: 0.0,
         })
+    }
+}
+
+/// The series resistance of healthy cells of one chemistry, scaled by the rated capacity
+/// ([`Chemistry::healthy_resistance`]): a cell of `C` Ah has about `typical_ohm_ah / C` Ω,
+/// within a factor `spread_factor` either way.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct HealthyResistance {
+    /// Typical series resistance of one cell times its rated capacity, Ω·Ah.
+    pub typical_ohm_ah: f64,
+    /// Healthy cells lie between the typical value over and times this factor (≥ 1).
+    pub spread_factor: f64,
+}
+
+impl HealthyResistance {
+    /// Typical series resistance of one cell (one series group) of `capacity_ah`, Ω; `None`
+    /// when the capacity is not a positive number.
+    pub fn typical_cell_ohm(&self, capacity_ah: f64) -> Option<f64> {
+        (capacity_ah.is_finite() && capacity_ah > 0.0).then(|| self.typical_ohm_ah / capacity_ah)
+    }
+
+    /// The highest series resistance a healthy cell of `capacity_ah` has, Ω (the typical value
+    /// times the spread); `None` when the capacity is not a positive number.
+    pub fn upper_cell_ohm(&self, capacity_ah: f64) -> Option<f64> {
+        self.typical_cell_ohm(capacity_ah)
+            .map(|r| r * self.spread_factor)
     }
 }
 

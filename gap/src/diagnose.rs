@@ -689,6 +689,10 @@ pub struct Diagnosis {
     pub systematic: SystematicCheck,
     /// Selected effects with parameters, shares and held-out errors.
     pub effects: Vec<FittedEffect>,
+    /// An extra series resistance the search selected that stays within what healthy packs of
+    /// the fits' chemistries and sizes have: kept in the model (the predictions after the
+    /// effects use it) but not named in `verdict` or `effects` ([`healthy_resistance`]).
+    pub healthy_resistance: Option<HealthyResistanceFound>,
     /// Where the baseline gap sits.
     pub r#where: Where,
     /// The batteries learned from the training flights, one per battery type.
@@ -745,11 +749,92 @@ impl Diagnosis {
     /// The effect parameters of the selected model.
     pub fn selected_params(&self) -> EffectParams {
         let mut p = EffectParams::baseline();
+        if let Some(h) = &self.healthy_resistance {
+            p.set(Effect::InternalResistance, h.extra_ohm);
+        }
         for e in &self.effects {
             p.set(e.effect, e.parameter.value);
         }
         p
     }
+}
+
+/// The series resistance of one battery type in the selected model against what a healthy
+/// pack of its chemistry and size has.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TypeResistance {
+    /// The battery type.
+    pub battery_type: String,
+    /// The chemistry of its fit (its prior).
+    pub chemistry: Chemistry,
+    /// Its rated capacity, Ah.
+    pub rated_capacity_ah: f64,
+    /// Series resistance per cell in the selected model (the baseline's plus the extra over
+    /// the cells), Ω.
+    pub model_cell_ohm: f64,
+    /// The highest series resistance per cell of a healthy pack of this chemistry and size
+    /// ([`crate::model::healthy_cell_resistance_ohm`]), Ω.
+    pub healthy_top_cell_ohm: f64,
+}
+
+/// An `internal_resistance` the search selected whose total stays within the healthy band of
+/// every battery type with logged current ([`healthy_resistance`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct HealthyResistanceFound {
+    /// The extra pack resistance kept in the model, Ω (the `internal_resistance` parameter).
+    pub extra_ohm: f64,
+    /// Per battery type with logged current, the model's resistance against the healthy top.
+    pub types: Vec<TypeResistance>,
+}
+
+/// Whether a selected `internal_resistance` (`params`) is the pack's own, healthy resistance
+/// rather than an effect: the baseline holds the series resistance at the nominal 5 mΩ per
+/// cell at most ([`crate::model::baseline_cell_resistance_ohm`]), so the search also finds the
+/// resistance a healthy pack has above that (cylindrical Li-ion and LiFePO₄ cells of drone
+/// pack sizes have several times it). A resistance all flights of a pack share cannot be told
+/// from a healthy pack of higher resistance by the flights alone, so the healthy band comes
+/// from published cell data by chemistry and rated capacity
+/// ([`crate::battery::Chemistry::healthy_resistance`]). `Some` when the extra is positive and,
+/// for every training battery type with logged current (at least one), the baseline's
+/// resistance per cell plus the extra over its cells stays at or under the healthy top; the
+/// extra then stays in the model but is not named. A measured curve (no chemistry) or a fit
+/// without a rated capacity has the nominal as its top, so any extra is named there, as
+/// before.
+pub fn healthy_resistance(
+    batteries: &BatterySet,
+    train: &[&FlightRecord],
+    verdict: &[Effect],
+    params: &EffectParams,
+) -> Option<HealthyResistanceFound> {
+    let extra_ohm = params.get(Effect::InternalResistance);
+    if !verdict.contains(&Effect::InternalResistance) || extra_ohm <= 0.0 {
+        return None;
+    }
+    let mut types = Vec::new();
+    for (fit, base) in batteries.fits.iter().zip(&batteries.baselines) {
+        if fit.current != CurrentSource::Logged {
+            continue;
+        }
+        let cells = train
+            .iter()
+            .find(|f| battery_type(f) == fit.battery_type)
+            .map(|f| f64::from(f.info.cells.max(1)))?;
+        types.push(TypeResistance {
+            battery_type: fit.battery_type.clone(),
+            chemistry: fit.prior,
+            rated_capacity_ah: fit.rated_capacity_ah,
+            model_cell_ohm: base.series_resistance_cell_ohm + extra_ohm / cells,
+            healthy_top_cell_ohm: crate::model::healthy_cell_resistance_ohm(
+                fit.prior,
+                fit.rated_capacity_ah,
+            ),
+        });
+    }
+    let healthy = !types.is_empty()
+        && types
+            .iter()
+            .all(|t| t.model_cell_ohm <= t.healthy_top_cell_ohm);
+    healthy.then_some(HealthyResistanceFound { extra_ohm, types })
 }
 
 /// The learned batteries of a flight set, by battery type, with the pooled one for types no
@@ -1747,6 +1832,24 @@ pub fn diagnose_with<C: PowerCurve>(
     }
     .unwrap_or(0.0);
     let effects = attribute_shares(&ev, train, heldout, &verdict, &params, level);
+    // An extra resistance within what healthy packs of this chemistry and size have stays in
+    // the model (`params`, so every prediction after the effects is unchanged) but is the
+    // pack's own, not an effect.
+    let healthy_resistance = healthy_resistance(batteries, train, &verdict, &params);
+    let (verdict, effects) = if healthy_resistance.is_some() {
+        (
+            verdict
+                .into_iter()
+                .filter(|e| *e != Effect::InternalResistance)
+                .collect(),
+            effects
+                .into_iter()
+                .filter(|e| e.effect != Effect::InternalResistance)
+                .collect(),
+        )
+    } else {
+        (verdict, effects)
+    };
     let residual = (!within_noise).then(|| describe_residual(&after_held, &after.heldout));
     Ok(Diagnosis {
         verdict,
@@ -1759,6 +1862,7 @@ pub fn diagnose_with<C: PowerCurve>(
         within_noise,
         systematic,
         effects,
+        healthy_resistance,
         r#where,
         batteries: batteries.fits.clone(),
         baseline,
@@ -1815,6 +1919,102 @@ mod tests {
                 measured_ocv: None,
             },
         }
+    }
+
+    /// A fit of battery type `id` (prior `chemistry`, `rated_capacity_ah`, current `current`)
+    /// whose baseline holds `baseline_cell_ohm` per cell.
+    fn typed_fit(
+        id: &str,
+        chemistry: Chemistry,
+        rated_capacity_ah: f64,
+        current: CurrentSource,
+        baseline_cell_ohm: f64,
+    ) -> (BatteryFit, LearnedBattery) {
+        let mut battery = LearnedBattery::lipo();
+        battery.series_resistance_cell_ohm = 0.02;
+        let mut base = battery;
+        base.series_resistance_cell_ohm = baseline_cell_ohm;
+        let fit = BatteryFit {
+            battery_type: id.into(),
+            battery,
+            prior: chemistry,
+            flights: 4,
+            samples: 2400,
+            soc_covered: (0.2, 1.0),
+            rmse_cell_v: 0.02,
+            current,
+            note: String::new(),
+            rated_capacity_ah,
+            usable_capacity_ah: None,
+            warnings: Vec::new(),
+        };
+        (fit, base)
+    }
+
+    fn set_of(fits: Vec<(BatteryFit, LearnedBattery)>) -> BatterySet {
+        let (fits, baselines): (Vec<_>, Vec<_>) = fits.into_iter().unzip();
+        BatterySet {
+            pooled: baselines[0],
+            fits,
+            baselines,
+        }
+    }
+
+    /// A 4S flight of battery type `id`.
+    fn flight_of(id: &str) -> FlightRecord {
+        let mut f = cutoff_flight();
+        f.info.battery_id = Some(id.into());
+        f
+    }
+
+    /// 0.06 Ω of extra pack resistance on a 4S, 3 Ah pack at a 5 mΩ baseline is 20 mΩ per
+    /// cell: within a healthy cylindrical Li-ion pack of that size (up to 53 mΩ), far above a
+    /// healthy LiPo (8 mΩ). Only the first is kept unnamed; a measured curve (no chemistry),
+    /// flights without current, an effect not selected, or one type above its band leave it
+    /// named.
+    #[test]
+    fn an_extra_resistance_within_the_healthy_band_is_the_packs_own() {
+        use CurrentSource::{Logged, PowerModel};
+        let f_a = flight_of("A");
+        let f_b = flight_of("B");
+        let train = [&f_a, &f_b];
+        let mut p = EffectParams::baseline();
+        p.set(Effect::InternalResistance, 0.06);
+        let selected = [Effect::InternalResistance, Effect::Peukert];
+        let nmc = |id| typed_fit(id, Chemistry::LiIonNmc, 3.0, Logged, 0.005);
+        let lipo = |id| typed_fit(id, Chemistry::Lipo, 3.0, Logged, 0.005);
+        let h = healthy_resistance(&set_of(vec![nmc("A"), nmc("B")]), &train, &selected, &p)
+            .expect("within the band");
+        assert_eq!(h.extra_ohm, 0.06);
+        assert_eq!(h.types.len(), 2);
+        let t = &h.types[0];
+        assert!((t.model_cell_ohm - 0.020).abs() < 1e-12, "{t:?}");
+        assert!((t.healthy_top_cell_ohm - 0.16 / 3.0).abs() < 1e-12, "{t:?}");
+        // One type above its band: named.
+        assert!(
+            healthy_resistance(&set_of(vec![nmc("A"), lipo("B")]), &train, &selected, &p).is_none()
+        );
+        // A measured curve says no chemistry: the nominal is the top.
+        let measured = typed_fit("A", Chemistry::Measured, 3.0, Logged, 0.005);
+        assert!(healthy_resistance(&set_of(vec![measured]), &train, &selected, &p).is_none());
+        // No type with logged current, or the effect not selected: nothing to keep.
+        let no_current = typed_fit("A", Chemistry::LiIonNmc, 3.0, PowerModel, 0.005);
+        assert!(healthy_resistance(&set_of(vec![no_current]), &train, &selected, &p).is_none());
+        assert!(
+            healthy_resistance(
+                &set_of(vec![nmc("A"), nmc("B")]),
+                &train,
+                &[Effect::Peukert],
+                &p
+            )
+            .is_none()
+        );
+        // Twice the extra (35 mΩ per cell) is still healthy for 3 Ah of NMC; 0.3 Ω (80 mΩ)
+        // is not.
+        p.set(Effect::InternalResistance, 0.12);
+        assert!(healthy_resistance(&set_of(vec![nmc("A")]), &train, &selected, &p).is_some());
+        p.set(Effect::InternalResistance, 0.3);
+        assert!(healthy_resistance(&set_of(vec![nmc("A")]), &train, &selected, &p).is_none());
     }
 
     /// A prediction at `index` with the flight's voltage plus `offset_v` and `endurance_s`.

@@ -163,6 +163,7 @@ struct Json<'a> {
     stability: &'a [gap::diagnose::Stability],
     within_noise: bool,
     effects: Vec<serde_json::Value>,
+    healthy_resistance: &'a Option<gap::diagnose::HealthyResistanceFound>,
     headline: &'a gap::diagnose::HeadlineGap,
     residual: &'a Option<gap::diagnose::Residual>,
     rejected: &'a [gap::diagnose::Rejected],
@@ -455,6 +456,7 @@ pub fn run(args: Args) -> Result<()> {
             stability: &d.stability,
             within_noise: d.within_noise,
             effects,
+            healthy_resistance: &d.healthy_resistance,
             headline: &d.headline,
             residual: &d.residual,
             rejected: &d.rejected,
@@ -589,6 +591,27 @@ pub fn run(args: Args) -> Result<()> {
     print_why(d);
     for r in &d.rejected {
         println!("dropped {}: {}", r.effect.name(), r.reason);
+    }
+    if let Some(h) = &d.healthy_resistance {
+        let types: Vec<String> = h
+            .types
+            .iter()
+            .map(|t| {
+                format!(
+                    "{} {:.1} mΩ per cell, a healthy {} pack of {:.2} Ah has up to {:.1} mΩ",
+                    t.battery_type,
+                    t.model_cell_ohm * 1000.0,
+                    t.chemistry.name(),
+                    t.rated_capacity_ah,
+                    t.healthy_top_cell_ohm * 1000.0
+                )
+            })
+            .collect();
+        println!(
+            "pack resistance: {:.1} mΩ of extra series resistance is kept in the model but not named: it is within what healthy packs have ({})",
+            h.extra_ohm * 1000.0,
+            types.join("; ")
+        );
     }
     if let Some(r) = &d.residual {
         if d.unexplained || d.verdict.is_empty() {
