@@ -40,13 +40,7 @@ fn main() {
                 );
                 *counts.entry(format!("{:?}", t.end)).or_default() += 1;
                 end_soc.push(t.end_soc);
-                let last_v: f64 = f
-                    .csv
-                    .lines()
-                    .last()
-                    .and_then(|l| l.split(',').nth(1))
-                    .and_then(|v| v.parse().ok())
-                    .unwrap_or(f64::NAN);
+                let last_v = f.last_voltage_v().unwrap_or(f64::NAN);
                 above_mv.push(1e3 * (last_v / cells - cutoff_cell_v));
             }
         }

@@ -44,6 +44,18 @@ pub struct SimFlight {
     pub samples: usize,
 }
 
+impl SimFlight {
+    /// The last logged voltage, V (`None` for a log without samples).
+    pub fn last_voltage_v(&self) -> Option<f64> {
+        self.csv
+            .lines()
+            .skip(1)
+            .last()
+            .and_then(|l| l.split(',').nth(1))
+            .and_then(|v| v.parse().ok())
+    }
+}
+
 /// How a flight ended.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize)]
 #[serde(rename_all = "snake_case")]

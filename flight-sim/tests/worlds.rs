@@ -260,13 +260,7 @@ fn packs_discharge_past_their_rated_empty_to_the_cutoff() {
                     t.end,
                     t.end_soc
                 );
-                let last_v: f64 = f
-                    .csv
-                    .lines()
-                    .last()
-                    .and_then(|l| l.split(',').nth(1))
-                    .and_then(|v| v.parse().ok())
-                    .unwrap();
+                let last_v = f.last_voltage_v().unwrap();
                 above_mv.push(1e3 * (last_v / f64::from(chem.cells()) - chem.cutoff_cell_v()));
             }
         }
