@@ -152,6 +152,20 @@ struct Oxide {
 }
 
 impl Oxide {
+    /// The chemistry's electrode pair and balance, built once per process (the tables are
+    /// parsed and the textbook window solved at the first pack of the chemistry, not at every
+    /// pack).
+    fn of(chem: Chemistry) -> &'static Self {
+        static OXIDES: [std::sync::OnceLock<Oxide>; 4] = [const { std::sync::OnceLock::new() }; 4];
+        let k = match chem {
+            Chemistry::LiPo => 0,
+            Chemistry::LiHv => 1,
+            Chemistry::Nmc => 2,
+            _ => 3,
+        };
+        OXIDES[k].get_or_init(|| Self::new(chem))
+    }
+
     fn new(chem: Chemistry) -> Self {
         let (pos, neg, x0, x100) = match chem {
             Chemistry::LiPo => (LICO2, GRAPHITE_AI, 0.02, 0.82),
@@ -266,7 +280,7 @@ impl OcvCurve {
                 (volts, below, exhausted)
             }
             _ => {
-                let ox = Oxide::new(chem);
+                let ox = Oxide::of(chem);
                 let (v_full, v_empty) = chem.full_empty_cell_v();
                 let inventory = ox.inventory + ox.ratio * scatter.window_shift;
                 let x0 = ox.x_at(chem, inventory, v_empty + scatter.empty_offset_v)?;
