@@ -10,7 +10,10 @@
 //!   measured electrode potentials, LiFePO4 from a Nernst-type formula), per-pack scatter, series
 //!   resistance with Arrhenius self-heating, two RC pairs, hysteresis;
 //! - propulsion ([`robot`]): momentum theory with a figure of merit and a stall term, calibrated
-//!   to the paper's rig curve, thrust limit against voltage, lead losses;
+//!   to the paper's rig curve, thrust limit against voltage and air density (a motor's resistive
+//!   drop at full throttle), lead losses; a robot lands when it has lacked thrust for about two
+//!   seconds (a low-passed demand), not on one control spike; the physics steps at 0.1 s
+//!   whatever the log rate;
 //! - logging ([`Logging`]): 1–50 Hz, offset and scale errors of the voltage and current
 //!   sensors, noise, quantisation, dropped samples and bursts, clock jitter, current optional
 //!   ([`simulate_with`] and [`SensorErrors`] fly a flight with calibrated sensors instead, for an

@@ -8,7 +8,10 @@
 //! terms scale as `ρ^−0.5` at equal thrust. The three coefficients and the stall exponent are
 //! calibrated once, by least squares, to the paper's rig curve (`paper-targets.md`: 10 g steps at
 //! 12.5 V); the test below states how close the calibration lands. Current through the leads
-//! costs `I²·R` on top, so the power at equal thrust rises a little as the pack sags.
+//! costs `I²·R` on top, so the power at equal thrust rises a little as the pack sags. The highest
+//! thrust comes from a motor at full throttle whose winding drop grows with the rotor's torque
+//! (`Propulsion::max_thrust_g`): calibrated to the paper's 260 g at 12.6 V and 150 g at 9.0 V,
+//! it falls with the air's density.
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -44,10 +47,12 @@ pub struct Propulsion {
     pub profile_w_at_100g: f64,
     /// Growth exponent of the profile power towards stall.
     pub stall_exponent: f64,
-    /// Highest thrust at 12.6 V, g.
+    /// Highest thrust at 12.6 V in the rig's air, g.
     pub max_thrust_g_at_12v6: f64,
-    /// Exponent `k` of the maximum thrust against voltage (`T_max ∝ V^k`).
-    pub max_thrust_exponent: f64,
+    /// The motor's resistive drop at full throttle: a supply of `V` volts turns the rotor at a
+    /// back-EMF `u` with `V = u + γ·(ρ/ρ_rig)·u²` (the winding current carries the rotor's
+    /// torque, `∝ ρ·u²`); this is `γ`, 1/V. See [`Self::max_thrust_g`].
+    pub motor_drop_per_v: f64,
     /// Lead resistance per rotor, Ω.
     pub lead_resistance_ohm: f64,
 }
@@ -113,6 +118,29 @@ fn nonneg_fit(rows: &[([f64; 4], f64)]) -> Option<([f64; 4], f64)> {
     best
 }
 
+/// Back-EMF `u` of a motor at full throttle on `volts`: the root of `V = u + g·u²`, V.
+fn back_emf_v(volts: f64, g: f64) -> f64 {
+    let v = volts.max(0.0);
+    if g <= 0.0 {
+        return v;
+    }
+    // (√(1 + 4gV) − 1)/(2g), written without the cancellation.
+    2.0 * v / (1.0 + (1.0 + 4.0 * g * v).sqrt())
+}
+
+/// The motor drop `γ` ([`Propulsion::motor_drop_per_v`]) whose highest thrust at `lo_v` is
+/// `ratio` times that at `hi_v` (in the rig's air), by bisection: the ratio climbs from
+/// `(lo/hi)²` (no drop) towards `lo/hi` (all drop) as `γ` grows.
+fn motor_drop_for(ratio: f64, lo_v: f64, hi_v: f64) -> f64 {
+    let at = |g: f64| (back_emf_v(lo_v, g) / back_emf_v(hi_v, g)).powi(2);
+    let (mut a, mut b) = (0.0_f64, 100.0_f64);
+    for _ in 0..200 {
+        let m = 0.5 * (a + b);
+        if at(m) < ratio { a = m } else { b = m }
+    }
+    0.5 * (a + b)
+}
+
 /// Lead loss of a rotor drawing `p` W at the rig's voltage through `r` Ω, W.
 fn lead_loss_w(p: f64, r: f64) -> f64 {
     let i = p / RIG_VOLTAGE_V;
@@ -161,9 +189,9 @@ impl Propulsion {
             copper_w_at_100g: c[2],
             profile_w_at_100g: c[3],
             stall_exponent: n,
-            // 260 g at 12.6 V and 150 g at 9.0 V (paper-targets.md).
+            // 260 g at 12.6 V and 150 g at 9.0 V (paper-targets.md), in the rig's air.
             max_thrust_g_at_12v6: 260.0,
-            max_thrust_exponent: (150.0f64 / 260.0).ln() / (9.0f64 / 12.6).ln(),
+            motor_drop_per_v: motor_drop_for(150.0 / 260.0, 9.0, 12.6),
             lead_resistance_ohm,
         }
     }
@@ -195,9 +223,17 @@ impl Propulsion {
         (t / (2.0 * rho * self.disk_area_m2())).sqrt()
     }
 
-    /// Highest thrust of one rotor at `volts`, g.
-    pub fn max_thrust_g(&self, volts: f64) -> f64 {
-        self.max_thrust_g_at_12v6 * (volts.max(0.0) / 12.6).powf(self.max_thrust_exponent)
+    /// Highest thrust of one rotor at `volts` in air of density `rho`, g.
+    ///
+    /// At full throttle the rotor turns as fast as the supply allows: its back-EMF `u` solves
+    /// `V = u + γ·(ρ/ρ_rig)·u²` ([`Self::motor_drop_per_v`]), and its thrust is `∝ ρ·u²`. Thinner
+    /// air lets the rotor spin a little faster but each turn carries less: the highest thrust
+    /// falls, a little less than in proportion to the density.
+    pub fn max_thrust_g(&self, volts: f64, rho: f64) -> f64 {
+        let d = rho / RIG_AIR_DENSITY_KG_M3;
+        let u = back_emf_v(volts, self.motor_drop_per_v * d);
+        let u_ref = back_emf_v(12.6, self.motor_drop_per_v);
+        self.max_thrust_g_at_12v6 * d * (u / u_ref).powi(2)
     }
 
     /// Electrical power one rotor draws from a supply at `volts`, W: rotor power plus its lead
@@ -267,7 +303,9 @@ impl Robot {
     /// up to the highest thrust, and the electrical power at each with the bench's noise, W.
     pub fn rig_sweep(&self, step_g: f64, seed: u64) -> (Vec<f64>, Vec<f64>) {
         let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7269_675f);
-        let max = self.propulsion.max_thrust_g(RIG_VOLTAGE_V);
+        let max = self
+            .propulsion
+            .max_thrust_g(RIG_VOLTAGE_V, RIG_AIR_DENSITY_KG_M3);
         let mut thrust = Vec::new();
         let mut power = Vec::new();
         let mut t = step_g;
@@ -303,8 +341,22 @@ mod tests {
         // A figure of merit times drive efficiency a real small rotor has (0.2–0.6).
         assert!((0.2..0.6).contains(&p.fm_eta), "{}", p.fm_eta);
         // The paper's thrust limits.
-        assert!((p.max_thrust_g(9.0) - 150.0).abs() < 1e-9);
-        assert!((p.max_thrust_g(12.6) - 260.0).abs() < 1e-9);
+        let rig = RIG_AIR_DENSITY_KG_M3;
+        assert!((p.max_thrust_g(9.0, rig) - 150.0).abs() < 1e-6);
+        assert!((p.max_thrust_g(12.6, rig) - 260.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn thinner_air_lowers_the_thrust_limit_less_than_in_proportion() {
+        let p = Propulsion::paper();
+        let rig = RIG_AIR_DENSITY_KG_M3;
+        for v in [9.0, 11.1, 12.6] {
+            let full = p.max_thrust_g(v, rig);
+            let thin = p.max_thrust_g(v, 0.85 * rig);
+            assert!(thin < full && thin > 0.85 * full, "{v} V: {thin} of {full}");
+            // Monotone in voltage.
+            assert!(p.max_thrust_g(v + 0.1, rig) > full);
+        }
     }
 
     #[test]

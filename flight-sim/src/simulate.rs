@@ -24,6 +24,12 @@ const COPPER_SHARE: f64 = 0.2;
 const ROTOR_BELOW_TOP_M: f64 = 0.03;
 /// `K₂` of the ceiling-effect formula, in rotor radii.
 const CEILING_K2_RADII: f64 = 0.6;
+/// Integration step of the flight's physics, s (whatever the log rate).
+const STEP_S: f64 = 0.1;
+/// Time constant over which the autopilot must lack thrust before the robot can no longer hold
+/// its altitude, s: a control spike that saturates the rotors for a moment costs a few
+/// centimetres that the next moment wins back; a deficit that lasts this long is a sink rate.
+const THRUST_LIMIT_TAU_S: f64 = 2.0;
 
 /// A simulated flight: its log as files and its truth.
 #[derive(Debug, Clone, PartialEq)]
@@ -353,14 +359,11 @@ pub(crate) fn run(
     let cutoff_v = f64::from(chem.cells()) * chem.cutoff_cell_v();
     let idle_w = robot.avionics_power_w + plan.payload_power_w;
 
-    // Integration step: the log interval within 0.1–0.5 s; faster logs sample the state of
-    // the step they fall in (with their own noise).
+    // Integration step: the same for every log rate, so a flight's physics does not depend
+    // on how often it is logged; each log tick samples the state of the step it falls in (with
+    // its own noise).
     let log_dt = 1.0 / sensor.rate_hz;
-    let dt = if log_dt >= 0.5 {
-        log_dt / (log_dt / 0.5).ceil()
-    } else {
-        log_dt.max(0.1)
-    };
+    let dt = STEP_S;
     let mut tick = 0u64;
     let mut last_kept_s = 0.0_f64;
 
@@ -383,6 +386,9 @@ pub(crate) fn run(
     let (ctrl_sigma, ctrl_tau) = robot.control_noise;
     let a_ctrl = (-dt / ctrl_tau).exp();
     let mut v_filtered = f64::NAN;
+    // The thrust asked of the rotors over what they can give, low-passed over
+    // THRUST_LIMIT_TAU_S (0 on the ground).
+    let mut demand_filtered = 0.0_f64;
     let mut last_v = pack.cells * pack.ocv.at(soc);
     let mut drop_left = 0usize;
     let mut ended = false;
@@ -411,9 +417,13 @@ pub(crate) fn run(
                 a_ctrl * ctrl + (1.0 - a_ctrl * a_ctrl).sqrt() * ctrl_sigma * normal(&mut ctrl_rng);
             let mass = robot.structure_mass_kg + spec.mass_kg + plan.payload_mass_kg + water;
             let mut rotor_w = 0.0;
-            let mut thrust_g = 0.0;
+            let mut demand = 0.0;
             if flying {
-                thrust_g = mass * 1000.0 / n_rot * (1.0 + download) * (1.0 + ctrl).max(0.2);
+                let mut thrust_g = mass * 1000.0 / n_rot * (1.0 + download) * (1.0 + ctrl).max(0.2);
+                // Saturated rotors give what they can (at the pack's last voltage), no more.
+                let max_g = prop.max_thrust_g(last_v, rho);
+                demand = thrust_g / max_g.max(1e-9);
+                thrust_g = thrust_g.min(max_g);
                 // Ceiling: more thrust at equal rotor speed means less speed, hence less power,
                 // at equal thrust: P ∝ (T/f)^1.5.
                 let mut aero_thrust_g = thrust_g;
@@ -475,7 +485,12 @@ pub(crate) fn run(
             } else {
                 v_filtered + (v_meas - v_filtered) * (dt / 1.0).min(1.0)
             };
-            if v_filtered < cutoff_v || (flying && prop.max_thrust_g(v) < thrust_g) {
+            demand_filtered = if flying {
+                demand_filtered + (demand - demand_filtered) * (dt / THRUST_LIMIT_TAU_S).min(1.0)
+            } else {
+                0.0
+            };
+            if v_filtered < cutoff_v || demand_filtered > 1.0 {
                 ended = true;
                 end = if v_filtered < cutoff_v {
                     FlightEnd::Cutoff

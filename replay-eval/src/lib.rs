@@ -255,11 +255,13 @@ fn read_back(f: &SimFlight, label_v: f64) -> Result<Flight, EvalError> {
 
 /// The rig's thrust-limit sweep of one rotor at `volts` (the paper's procedure: at the minimum
 /// battery voltage, the autopilot's landing threshold, thrust stepped by `step_g` until the
-/// rotor cannot hold a step): the limit lies between the last step held and the next, so it is
+/// rotor cannot hold a step, in the rig hall's air): the limit lies between the last step held and the next, so it is
 /// reported as the middle of that step with the step's uniform standard deviation
 /// (`step / √12`).
 pub fn limit_sweep(robot: &Robot, volts: f64, step_g: f64) -> estimator::ThrustLimit {
-    let max = robot.propulsion.max_thrust_g(volts);
+    let max = robot
+        .propulsion
+        .max_thrust_g(volts, flight_sim::robot::RIG_AIR_DENSITY_KG_M3);
     let mut held = 0.0;
     while held + step_g <= max {
         held += step_g;
