@@ -20,7 +20,10 @@ use crate::settle::{SettleDetector, Window};
 use crate::sink::StepSink;
 use crate::sweep::{SweepEnd, SweepEnv, SweepOutcome};
 
-/// Host time without a single sample that ends a sweep, µs (of the host's clock).
+/// Host time without a single sample that ends a sweep, µs (of the host's clock). On a
+/// simulated rig running faster than real time the host's clock is scaled too, so the same
+/// time must also have passed on the wall ([`std::time::Instant`]): a loaded machine that
+/// stalls the simulator for a second of wall time has not lost the rig.
 const NO_SAMPLES_TIMEOUT_US: u64 = 5_000_000;
 
 /// Runs one sweep on a connected rig; built by [`crate::sweep::run_sweep`].
@@ -192,6 +195,7 @@ where
             let mut det = SettleDetector::new(self.cfg.settle, throttle_us);
             let mut marks = StatusMarks::default();
             let mut last_sample_at = self.clock.now_us();
+            let mut last_sample_wall = std::time::Instant::now();
             let mut thrust_g = None;
             loop {
                 self.check()?;
@@ -203,6 +207,7 @@ where
                     Some(s) if s.time_us < self.fresh_after_us => {}
                     Some(s) => {
                         last_sample_at = now;
+                        last_sample_wall = std::time::Instant::now();
                         self.first_sample_us.get_or_insert(s.time_us);
                         self.last_sample_us = s.time_us;
                         thrust_g = Some(f64::from(s.thrust_g));
@@ -227,7 +232,10 @@ where
                             });
                         }
                     }
-                    None if now.saturating_sub(last_sample_at) > NO_SAMPLES_TIMEOUT_US => {
+                    None if now.saturating_sub(last_sample_at) > NO_SAMPLES_TIMEOUT_US
+                        && last_sample_wall.elapsed().as_micros()
+                            > u128::from(NO_SAMPLES_TIMEOUT_US) =>
+                    {
                         return Err(HostError::Timeout {
                             what: "no samples from the rig".into(),
                             seconds: NO_SAMPLES_TIMEOUT_US as f64 * 1e-6,
