@@ -385,6 +385,9 @@ pub(crate) fn run(
     let mut ctrl = 0.0_f64;
     let (ctrl_sigma, ctrl_tau) = robot.control_noise;
     let a_ctrl = (-dt / ctrl_tau).exp();
+    // What relaxes by a fixed share per step (the step is fixed).
+    let rc_gain = pack.rc.map(|(_, tau)| 1.0 - (-dt / tau).exp());
+    let motor_gain = 1.0 - (-dt / 150.0).exp();
     let mut v_filtered = f64::NAN;
     // The thrust asked of the rotors over what they can give, low-passed over
     // THRUST_LIMIT_TAU_S (0 on the ground).
@@ -463,8 +466,9 @@ pub(crate) fn run(
                 load_w += hold_a * last_v;
             }
             // Pack: E − I·R = V, V·I = P.
-            let r_cell =
-                pack.r0_ohm * (RESISTANCE_ACTIVATION_K * (1.0 / cell_k - 1.0 / 298.15)).exp();
+            // Arrhenius factor of the cells' resistances at their temperature.
+            let arrhenius = (RESISTANCE_ACTIVATION_K * (1.0 / cell_k - 1.0 / 298.15)).exp();
+            let r_cell = pack.r0_ohm * arrhenius;
             let r = pack.cells * r_cell + extra_r;
             let e = pack.cells * (pack.ocv.at(soc) + hyst - v_rc[0] - v_rc[1]);
             let disc = e * e - 4.0 * r * load_w;
@@ -544,9 +548,8 @@ pub(crate) fn run(
                 i
             };
             soc -= drawn * dt / 3600.0 / pack.capacity_ah;
-            for (k, (r1, tau)) in pack.rc.iter().enumerate() {
-                let r1t = r1 * (RESISTANCE_ACTIVATION_K * (1.0 / cell_k - 1.0 / 298.15)).exp();
-                v_rc[k] += (i * r1t - v_rc[k]) * (1.0 - (-dt / tau).exp());
+            for (k, (r1, _)) in pack.rc.iter().enumerate() {
+                v_rc[k] += (i * (r1 * arrhenius) - v_rc[k]) * rc_gain[k];
             }
             // Hysteresis relaxes towards the discharge branch with the charge moved.
             let gamma = 40.0;
@@ -558,7 +561,7 @@ pub(crate) fn run(
             cell_k += (heat_w - ha * (cell_k - ambient_k)) * dt / pack.heat_capacity_j_k;
             if heating_k > 0.0 {
                 let target = if flying { heating_k } else { 0.0 };
-                motor_dk += (target - motor_dk) * (1.0 - (-dt / 150.0).exp());
+                motor_dk += (target - motor_dk) * motor_gain;
             }
             if flying && water > 0.0 {
                 water = (water - water0 / 300.0 * dt).max(0.0);
