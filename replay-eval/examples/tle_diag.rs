@@ -1,7 +1,7 @@
 //! Analysis of the thrust-limit end (issue 14), not a study: for every replayed flight of a seed
 //! range, how it really ended (flight-sim's record: for the analysis only, nothing of it reaches
 //! the estimator), the last logged voltage, the logged air density, and the error at 50 % of
-//! two configurations (`DIAG_A`, `DIAG_B`: `SWEEP_CFG` specs; by default the thrust-limit end
+//! two configurations (at 50 %, or at the checkpoint `DIAG_CHECKPOINT`: 0–3 for 25, 50, 75, 90 %) (`DIAG_A`, `DIAG_B`: `SWEEP_CFG` specs; by default the thrust-limit end
 //! off and the defaults), with the estimator's own thrust model at the last voltage: the
 //! floor voltage where the rig's `T_L·(V/V_L)^k` meets the declared hover thrust, and the
 //! ratio of that maximum thrust to the hover thrust at the last logged voltage.
@@ -40,14 +40,18 @@ fn main() {
                             let fa = ra.flights.iter().find(|f| f.name == flight.name);
                             let fb = rb.flights.iter().find(|f| f.name == flight.name);
                             let (Some(fa), Some(fb)) = (fa, fb) else { continue };
+                            let cp: usize = std::env::var("DIAG_CHECKPOINT")
+                                .ok()
+                                .and_then(|s| s.parse().ok())
+                                .unwrap_or(1);
                             let e = |f: &replay::FlightReplay| {
-                                let c = &f.checkpoints[1];
+                                let c = &f.checkpoints[cp];
                                 c.predicted_remaining_s.map_or(f64::NAN, |p| {
                                     (p - c.true_remaining_s) / f.duration_s() * 100.0
                                 })
                             };
                             let sg = |f: &replay::FlightReplay| {
-                                f.checkpoints[1].sigma_s.unwrap_or(f64::NAN) / f.duration_s()
+                                f.checkpoints[cp].sigma_s.unwrap_or(f64::NAN) / f.duration_s()
                                     * 100.0
                             };
                             let v = &flight.samples.voltage_v;
