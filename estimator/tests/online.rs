@@ -789,9 +789,15 @@ fn the_thrust_limit_ends_the_flight_where_the_rotors_run_out() {
         supply_voltage_v: 10.65,
     });
     let truth_pack = vary(|p| p.cutoff_cell_v = 10.65 / 3.0);
+    // The truth here lands at the mean thrust: no headroom.
     let config = OnlineConfig {
         thrust_limit_end: true,
+        thrust_headroom_fraction: 0.0,
         ..OnlineConfig::default()
+    };
+    let off = OnlineConfig {
+        thrust_limit_end: false,
+        ..config
     };
     let errors_with = |params: &estimator::Params, config: &OnlineConfig, current: bool| {
         let mut est = OnlineEstimator::new(params, &file_battery(), config).unwrap();
@@ -818,14 +824,61 @@ fn the_thrust_limit_ends_the_flight_where_the_rotors_run_out() {
     }
     let ended = errors(&with_limit, &config);
     let without = errors(&params(), &config);
-    let switched_off = errors(&with_limit, &OnlineConfig::default());
+    let switched_off = errors(&with_limit, &off);
     for k in 0..3 {
         assert!(ended[k].abs() < 0.03, "with the limit: {ended:?}");
         assert!(
             without[k] > 0.04,
             "without a limit it flies on: {without:?}"
         );
-        assert_eq!(without[k], switched_off[k], "off by default");
+        assert_eq!(
+            without[k], switched_off[k],
+            "switched off: as without a limit"
+        );
+    }
+    assert!(!OnlineConfig::default().thrust_limit_end, "off by default");
+}
+
+/// A controller that keeps a headroom of thrust for its corrections lands when the rotors'
+/// maximum thrust falls to the hover thrust plus that headroom: the limit measured at 10.65 V
+/// is 4 % above the hover thrust, and the truth lands there. With the 4 % headroom the end is
+/// found; without it the estimator flies on to where the limit meets the bare hover thrust.
+#[test]
+fn the_thrust_limit_end_keeps_the_controllers_headroom() {
+    let hover_g = 575.0 / 4.0;
+    let mut with_limit = params();
+    with_limit.thrust_limit = Some(estimator::ThrustLimit {
+        per_rotor_g: 1.04 * hover_g,
+        uncertainty_g: 2.9,
+        supply_voltage_v: 10.65,
+    });
+    let truth_pack = vary(|p| p.cutoff_cell_v = 10.65 / 3.0);
+    let errors = |headroom: f64| {
+        let config = OnlineConfig {
+            thrust_limit_end: true,
+            thrust_headroom_fraction: headroom,
+            ..OnlineConfig::default()
+        };
+        let mut est = OnlineEstimator::new(&with_limit, &file_battery(), &config).unwrap();
+        let f = fly(
+            truth_pack,
+            est.idle_power_w(),
+            est.model_hover_power_w(),
+            10.0,
+            true,
+            7,
+        );
+        let out = run(&f, &mut est);
+        [0.25, 0.5, 0.75].map(|frac| remaining_error(&f, &out, frac))
+    };
+    let kept = errors(0.04);
+    let bare = errors(0.0);
+    for k in 0..3 {
+        assert!(kept[k].abs() < 0.03, "with the headroom: {kept:?}");
+        assert!(
+            bare[k] > kept[k] + 0.01,
+            "without it the end comes later: {bare:?} vs {kept:?}"
+        );
     }
 }
 

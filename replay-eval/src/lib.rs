@@ -986,7 +986,7 @@ pub fn to_json(study: &Study) -> serde_json::Value {
 }
 
 /// The online estimator's defaults with overrides `key=value,key=value` (the field names of
-/// [`OnlineConfig`]'s numbers; `thrust_limit_end=1` turns the thrust-limit end on): what the
+/// [`OnlineConfig`]'s numbers; `thrust_limit_end=0` turns the thrust-limit end off, `=1` on): what the
 /// `sweep` and `trace` examples read from `SWEEP_CFG`.
 pub fn config_from_spec(spec: &str) -> Result<OnlineConfig, String> {
     let mut c = OnlineConfig::default();
@@ -1025,6 +1025,7 @@ pub fn config_from_spec(spec: &str) -> Result<OnlineConfig, String> {
             "capacity_fade_sigma" => &mut c.capacity_fade_sigma,
             "extra_power_thrust_share" => &mut c.extra_power_thrust_share,
             "extra_power_thrust_share_sigma" => &mut c.extra_power_thrust_share_sigma,
+            "thrust_headroom_fraction" => &mut c.thrust_headroom_fraction,
             other => return Err(format!("unknown key {other:?}")),
         };
         *slot = v;

@@ -184,17 +184,24 @@ fn the_sensor_ablation_flies_the_same_worlds() {
 #[test]
 fn config_specs_override_the_defaults_by_name() {
     let c = replay_eval::config_from_spec(
-        " charged_start_soc_sigma=0.02, voltage_bias_sigma_cell_v = 0.1,thrust_limit_end=1,",
+        " charged_start_soc_sigma=0.02, voltage_bias_sigma_cell_v = 0.1,thrust_limit_end=0,thrust_headroom_fraction=0.05",
     )
     .unwrap();
     assert_eq!(c.charged_start_soc_sigma, 0.02);
     assert_eq!(c.voltage_bias_sigma_cell_v, 0.1);
-    assert!(c.thrust_limit_end);
+    assert!(!c.thrust_limit_end);
+    assert_eq!(c.thrust_headroom_fraction, 0.05);
+    assert!(
+        replay_eval::config_from_spec("thrust_limit_end=1")
+            .unwrap()
+            .thrust_limit_end
+    );
     assert_eq!(
         OnlineConfig {
             charged_start_soc_sigma: 0.0,
             voltage_bias_sigma_cell_v: OnlineConfig::default().voltage_bias_sigma_cell_v,
-            thrust_limit_end: false,
+            thrust_limit_end: OnlineConfig::default().thrust_limit_end,
+            thrust_headroom_fraction: OnlineConfig::default().thrust_headroom_fraction,
             ..c
         },
         OnlineConfig::default()

@@ -83,10 +83,13 @@ pub(super) struct ThrustEnd {
 }
 
 impl ThrustEnd {
-    /// Per-rotor thrust needed when `share` of `extra_w` (power above the model's hover power)
-    /// goes into thrust, g.
-    pub fn thrust_g(&self, extra_w: f64, share: f64) -> f64 {
-        (self.hover_g + share * extra_w / self.watts_per_g.max(1e-6)).max(0.5 * self.hover_g)
+    /// Per-rotor thrust the rotors must be able to give when `share` of `extra_w` (power above
+    /// the model's hover power) goes into thrust and the controller keeps `headroom` (a
+    /// fraction of the mean thrust) above it for its corrections, g.
+    pub fn thrust_g(&self, extra_w: f64, share: f64, headroom: f64) -> f64 {
+        let mean_g =
+            (self.hover_g + share * extra_w / self.watts_per_g.max(1e-6)).max(0.5 * self.hover_g);
+        mean_g * (1.0 + headroom.max(0.0))
     }
 
     /// Loaded pack voltage below which the rotors cannot make `thrust_g`, V.
