@@ -10,12 +10,9 @@
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let families = replay_eval::select_families(args.get(1).map_or("tuning", String::as_str))
-        .expect("families");
-    let first: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(0);
-    let count: u64 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(12);
+    let (families, seeds) = replay_eval::families_and_seeds(&args).expect("families");
     let opts = replay_eval::StudyOptions {
-        seeds: first..first + count,
+        seeds,
         families,
         threads: 2,
         config: config_from_env(),

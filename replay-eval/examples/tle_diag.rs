@@ -11,16 +11,13 @@ use estimator::PowerCurve;
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let families = replay_eval::select_families(args.get(1).map_or("tuning", String::as_str))
-        .expect("families");
-    let first: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(0);
-    let count: u64 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(12);
+    let (families, seeds) = replay_eval::families_and_seeds(&args).expect("families");
     let cfg = |k: &str, d: &str| {
         replay_eval::config_from_spec(&std::env::var(k).unwrap_or_else(|_| d.to_owned())).expect(k)
     };
     let a = cfg("DIAG_A", "thrust_limit_end=0");
     let b = cfg("DIAG_B", "");
-    let seeds: Vec<u64> = (first..first + count).collect();
+    let seeds: Vec<u64> = seeds.collect();
     let lines: Vec<String> = std::thread::scope(|scope| {
         let hs: Vec<_> = (0..2)
             .map(|t| {

@@ -220,6 +220,15 @@ pub fn select_families(filter: &str) -> Result<Vec<Family>, EvalError> {
     Family::select(filter, is_tuning_family).map_err(|e| EvalError::NoFamily(e.0))
 }
 
+/// The families and seeds of an example's command line `FAMILIES FIRST COUNT` (`args[1..]`;
+/// defaults `tuning`, 0, 12).
+pub fn families_and_seeds(args: &[String]) -> Result<(Vec<Family>, Range<u64>), EvalError> {
+    let families = select_families(args.get(1).map_or("tuning", String::as_str))?;
+    let first: u64 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(0);
+    let count: u64 = args.get(3).and_then(|s| s.parse().ok()).unwrap_or(12);
+    Ok((families, first..first + count))
+}
+
 /// The rig curve a user fits from the sweep (fifth order).
 pub fn rig_curve(thrust_g: &[f64], power_w: &[f64], volts: f64) -> Result<PolyCurve, EvalError> {
     let f = fit::fit_polynomial(thrust_g, power_w, 5).map_err(|e| EvalError::Rig(e.to_string()))?;
