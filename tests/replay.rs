@@ -113,6 +113,52 @@ fn out_folder_has_plots_table_and_json_and_is_replaced_whole() {
     );
 }
 
+/// `--thrust-limit-end` needs a `[thrust_limit]`, and with one whose floor lies well above the
+/// cut-off (150 g per rotor at 10.8 V for a 149 g hover, 3 % headroom: about 10.9 V against the
+/// 9 V cut-off) the online estimate at half the flight comes earlier than without it; the
+/// baselines do not move.
+#[test]
+fn the_thrust_limit_end_is_opt_in_and_needs_the_limit() {
+    let flight = format!("{DATA}/9-hover-A.csv");
+    let out = run(&[
+        "replay",
+        "--params",
+        &params(),
+        &flight,
+        "--thrust-limit-end",
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert!(err.contains("no [thrust_limit] section"), "{err}");
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(params()).unwrap();
+    let at = text.find("[battery]").unwrap();
+    let p = dir.path().join("params.toml");
+    std::fs::write(
+        &p,
+        format!(
+            "{}[thrust_limit]\nper_rotor_g = 150.0\nuncertainty_g = 1.0\ntotal_kg = 0.6\nsupply_voltage_v = 10.8\nmethod = \"plateau\"\n\n{}",
+            &text[..at],
+            &text[at..]
+        ),
+    )
+    .unwrap();
+    let half = |extra: &[&str]| -> (f64, f64) {
+        let mut a = vec!["replay", "--params", p.to_str().unwrap(), &flight, "--json"];
+        a.extend_from_slice(extra);
+        let v: Value = serde_json::from_str(&ok(&a)).unwrap();
+        let c = &v["flights"][0]["checkpoints"][1];
+        (
+            c["predicted_remaining_s"].as_f64().unwrap(),
+            c["baselines"]["static_model"].as_f64().unwrap(),
+        )
+    };
+    let (free, free_static) = half(&[]);
+    let (ended, ended_static) = half(&["--thrust-limit-end"]);
+    assert!(ended < free - 10.0, "{ended} s against {free} s");
+    assert_eq!(free_static, ended_static);
+}
+
 #[test]
 fn without_a_battery_section_the_baselines_still_run() {
     let dir = tempfile::tempdir().unwrap();

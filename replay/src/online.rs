@@ -57,6 +57,13 @@ impl FileOnline {
         Ok(Self::new(params, battery, config))
     }
 
+    /// The same with the thrust-limit end switched on or off
+    /// ([`OnlineConfig::thrust_limit_end`]: it acts only with the parameters' `[thrust_limit]`).
+    pub fn with_thrust_limit_end(mut self, on: bool) -> Self {
+        self.config.thrust_limit_end = on;
+        self
+    }
+
     /// From parameters, a pack model and the filter's configuration.
     pub fn new(params: Params, battery: BatteryModel, config: OnlineConfig) -> Self {
         Self {
