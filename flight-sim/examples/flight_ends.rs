@@ -6,9 +6,7 @@
 
 use std::collections::BTreeMap;
 
-use flight_sim::{
-    Family, FlightEnd, RobotVariant, SensorErrors, Withheld, plans, simulate_with_truth,
-};
+use flight_sim::{Family, FlightEnd, RobotVariant, clean_flights};
 
 fn main() {
     let seeds: u64 = std::env::args()
@@ -26,23 +24,11 @@ fn main() {
         let (mut end_soc, mut above_mv) = (Vec::new(), Vec::new());
         let cells = f64::from(fam.chemistry.cells());
         let cutoff_cell_v = fam.chemistry.cutoff_cell_v();
-        for seed in 0..seeds {
-            let robot = flight_sim::Robot::of(fam.robot, seed);
-            let (tp, hp) = plans(&fam, seed);
-            for (k, p) in tp.iter().chain(&hp).enumerate() {
-                let (f, t) = simulate_with_truth(
-                    &fam,
-                    &robot,
-                    p,
-                    &Withheld::NONE,
-                    seed * 1000 + k as u64,
-                    SensorErrors::Ideal,
-                );
-                *counts.entry(format!("{:?}", t.end)).or_default() += 1;
-                end_soc.push(t.end_soc);
-                let last_v = f.last_voltage_v().unwrap_or(f64::NAN);
-                above_mv.push(1e3 * (last_v / cells - cutoff_cell_v));
-            }
+        for (f, t) in clean_flights(&fam, 0..seeds) {
+            *counts.entry(format!("{:?}", t.end)).or_default() += 1;
+            end_soc.push(t.end_soc);
+            let last_v = f.last_voltage_v().unwrap_or(f64::NAN);
+            above_mv.push(1e3 * (last_v / cells - cutoff_cell_v));
         }
         end_soc.sort_by(f64::total_cmp);
         above_mv.sort_by(f64::total_cmp);

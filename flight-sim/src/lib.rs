@@ -223,6 +223,31 @@ pub fn generate(family: &Family, effect: &Withheld, seed: u64) -> GeneratedSet {
     }
 }
 
+/// Every flight of `family`'s training and held-out plans for `seeds`, with no withheld effect
+/// and calibrated sensors ([`SensorErrors::Ideal`]), beside its truth: how the simulator's own
+/// flights end, for its examples and tests (flight `k` of seed `s` flies seed `1000·s + k`).
+pub fn clean_flights(
+    family: &Family,
+    seeds: std::ops::Range<u64>,
+) -> Vec<(SimFlight, FlightTruth)> {
+    let mut out = Vec::new();
+    for seed in seeds {
+        let robot = Robot::of(family.robot, seed);
+        let (tp, hp) = plans(family, seed);
+        for (k, p) in tp.iter().chain(&hp).enumerate() {
+            out.push(simulate_with_truth(
+                family,
+                &robot,
+                p,
+                &Withheld::NONE,
+                seed * 1000 + k as u64,
+                SensorErrors::Ideal,
+            ));
+        }
+    }
+    out
+}
+
 /// Salts of the training and held-out flights' seeds.
 const TRAIN_SALT: u64 = 0;
 const HELDOUT_SALT: u64 = 100;

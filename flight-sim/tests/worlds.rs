@@ -237,32 +237,20 @@ fn pack_truths_are_the_packs_the_flights_fly() {
 /// the cut-off its metadata names.
 #[test]
 fn packs_discharge_past_their_rated_empty_to_the_cutoff() {
-    use flight_sim::{FlightEnd, Robot, SensorErrors, plans, simulate_with_truth};
+    use flight_sim::{FlightEnd, clean_flights};
     for chem in [Chemistry::LiPo, Chemistry::LiHv] {
         let fam = family(chem, Logging::Lab1Hz);
         let mut above_mv = Vec::new();
-        for seed in 0..2 {
-            let robot = Robot::of(fam.robot, seed);
-            let (tp, hp) = plans(&fam, seed);
-            for (k, p) in tp.iter().chain(&hp).enumerate() {
-                let (f, t) = simulate_with_truth(
-                    &fam,
-                    &robot,
-                    p,
-                    &Withheld::NONE,
-                    seed * 1000 + k as u64,
-                    SensorErrors::Ideal,
-                );
-                assert!(
-                    matches!(t.end, FlightEnd::Cutoff | FlightEnd::ThrustLimit),
-                    "{chem:?} seed {seed} {}: {:?} at state of charge {}",
-                    f.name,
-                    t.end,
-                    t.end_soc
-                );
-                let last_v = f.last_voltage_v().unwrap();
-                above_mv.push(1e3 * (last_v / f64::from(chem.cells()) - chem.cutoff_cell_v()));
-            }
+        for (f, t) in clean_flights(&fam, 0..2) {
+            assert!(
+                matches!(t.end, FlightEnd::Cutoff | FlightEnd::ThrustLimit),
+                "{chem:?} {}: {:?} at state of charge {}",
+                f.name,
+                t.end,
+                t.end_soc
+            );
+            let last_v = f.last_voltage_v().unwrap();
+            above_mv.push(1e3 * (last_v / f64::from(chem.cells()) - chem.cutoff_cell_v()));
         }
         above_mv.sort_by(f64::total_cmp);
         let median = above_mv[above_mv.len() / 2];

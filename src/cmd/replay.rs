@@ -67,9 +67,7 @@ pub fn run(args: Args) -> Result<()> {
             args.params.display()
         );
     }
-    let online = replay::online::FileOnline::from_file(&file).map(|o| {
-        Box::new(o.with_thrust_limit_end(args.thrust_limit_end)) as Box<dyn replay::OnlineBuilder>
-    });
+    let online = replay::online_from_file(&file, args.thrust_limit_end);
     // PX4 set up for the pack: the chemistry of the [battery] section (PX4's defaults without)
     let chemistry = file
         .battery
