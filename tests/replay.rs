@@ -240,3 +240,83 @@ fn battery_learn_writes_the_section_and_keeps_the_curve() {
     );
     assert!(Path::new(ps).exists());
 }
+
+/// `--pack-history` on simulated flights of one faded pack type (flight-sim, `lipo-A`): the
+/// flights are taken in the order they were flown (by `battery_cycles`), each one that ends at
+/// the cut-off voltage with its current logged measures the pack's capacity, and the pack's
+/// next flight says which flight's reading it flew with, in the text and in the JSON; without
+/// the flag there is no `pack_history`.
+#[test]
+fn pack_history_carries_a_reading_to_the_packs_next_flight() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let world = d.join("w");
+    ok(&[
+        "simulate-flights",
+        "-o",
+        world.to_str().unwrap(),
+        "--family",
+        "lipo/lab-1hz/paper",
+        "--effect",
+        "capacity_fade=0.15",
+        "--seed",
+        "3",
+    ]);
+    let p = d.join("params.toml");
+    ok(&[
+        "fit",
+        world.join("rig-sweep.csv").to_str().unwrap(),
+        "-o",
+        p.to_str().unwrap(),
+    ]);
+    ok(&[
+        "battery",
+        "learn",
+        "--params",
+        p.to_str().unwrap(),
+        world.join("train").to_str().unwrap(),
+        "--battery-type",
+        "lipo-A",
+    ]);
+    let held = d.join("held-a");
+    std::fs::create_dir(&held).unwrap();
+    for e in std::fs::read_dir(world.join("heldout")).unwrap() {
+        let e = e.unwrap().path();
+        let name = e.file_name().unwrap().to_str().unwrap().to_owned();
+        if name.contains("-A.") {
+            std::fs::copy(&e, held.join(name)).unwrap();
+        }
+    }
+    let args = [
+        "replay",
+        "--params",
+        p.to_str().unwrap(),
+        held.to_str().unwrap(),
+    ];
+    let with = |extra: &[&str]| -> Value {
+        let mut a = args.to_vec();
+        a.extend_from_slice(extra);
+        serde_json::from_str(&ok(&a)).unwrap()
+    };
+    let plain = with(&["--json"]);
+    assert!(plain["flights"][0].get("pack_history").is_none());
+    let v = with(&["--json", "--pack-history"]);
+    let flights = v["flights"].as_array().unwrap();
+    assert_eq!(flights.len(), 2);
+    let (first, second) = (&flights[0], &flights[1]);
+    let h0 = &first["pack_history"];
+    assert!(h0["carried_from"].is_null());
+    let f0 = h0["reading_factor"].as_f64().unwrap();
+    assert!((0.5..=1.5).contains(&f0), "{h0}");
+    let h1 = &second["pack_history"];
+    assert_eq!(h1["carried_from"], first["name"]);
+    assert_eq!(h1["carried_factor"].as_f64().unwrap(), f0);
+    let text = ok(&[args.as_slice(), &["--pack-history"]].concat());
+    let name = first["name"].as_str().unwrap();
+    assert!(
+        text.contains(&format!(
+            "pack history: flew with the capacity {name} measured"
+        )),
+        "{text}"
+    );
+}

@@ -29,6 +29,7 @@ fn main() {
         families,
         threads: 2,
         config: estimator::online::OnlineConfig::default(),
+        pack_history: false,
     };
     let done = std::sync::atomic::AtomicUsize::new(0);
     let studies = replay_eval::study_oracles(&opts, &oracles, &|| {

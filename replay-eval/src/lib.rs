@@ -509,7 +509,18 @@ impl PreparedScenario {
 /// Replays a prepared scenario's held-out flights with the online estimator configured by
 /// `config` (step 4 of the crate docs).
 pub fn replay_scenario(prepared: &PreparedScenario, config: &OnlineConfig) -> ScenarioOutcome {
-    replay_scenario_by(prepared, config, &|_, battery, config| {
+    replay_scenario_with_history(prepared, config, false)
+}
+
+/// [`replay_scenario`] with the packs' history on or off (`replay --pack-history`,
+/// [`replay::history`]): the held-out flights are replayed in the order they were flown, and
+/// each pack's second flight flies the capacity its first measured.
+pub fn replay_scenario_with_history(
+    prepared: &PreparedScenario,
+    config: &OnlineConfig,
+    pack_history: bool,
+) -> ScenarioOutcome {
+    replay_scenario_by(prepared, config, pack_history, &|_, battery, config| {
         Box::new(FileOnline::new(prepared.online_params(), battery, config))
     })
 }
@@ -523,7 +534,7 @@ pub fn replay_scenario_with_oracle(
     config: &OnlineConfig,
     oracle: Oracle,
 ) -> ScenarioOutcome {
-    replay_scenario_by(prepared, config, &|k, battery, config| {
+    replay_scenario_by(prepared, config, false, &|k, battery, config| {
         Box::new(OracleOnline {
             params: prepared.online_params(),
             battery,
@@ -539,6 +550,7 @@ pub fn replay_scenario_with_oracle(
 fn replay_scenario_by(
     prepared: &PreparedScenario,
     config: &OnlineConfig,
+    pack_history: bool,
     online: &dyn Fn(
         usize,
         estimator::online::BatteryModel,
@@ -547,6 +559,7 @@ fn replay_scenario_by(
 ) -> ScenarioOutcome {
     let mut flights = Vec::new();
     let mut skipped = prepared.skipped.clone();
+    let mut history = replay::history::PackHistory::new();
     for (k, (flight, battery)) in prepared.flights.iter().enumerate() {
         let mut config = *config;
         if let Some(Some(s)) = prepared.curve_sigma_cell_v.get(k) {
@@ -559,7 +572,8 @@ fn replay_scenario_by(
             online: Some(online.as_ref()),
             chemistry: Some(battery.chemistry),
         };
-        match replay::replay_flight(flight, &rc) {
+        let h = pack_history.then_some(&mut history);
+        match replay::replay_flight_with_history(flight, &rc, h) {
             Ok(r) => flights.push(r),
             Err(reason) => skipped.push(SkippedFlight {
                 name: flight.name.clone(),
@@ -652,6 +666,8 @@ pub struct StudyOptions {
     pub threads: usize,
     /// The online estimator's configuration.
     pub config: OnlineConfig,
+    /// Carry each pack's measured capacity to its next flight ([`replay_scenario_with_history`]).
+    pub pack_history: bool,
 }
 
 /// A group of scenarios and its replay summary.
@@ -759,7 +775,9 @@ pub fn study_with(
                     for &s in seeds.iter().skip(t).step_by(threads) {
                         let fam = family_of(s, &opts.families);
                         let r = prepare_scenario_with(&fam, s, sensors)
-                            .map(|p| replay_scenario(&p, &opts.config))
+                            .map(|p| {
+                                replay_scenario_with_history(&p, &opts.config, opts.pack_history)
+                            })
                             .map_err(|e| e.to_string());
                         out.push((s, fam, r));
                         progress();
@@ -955,6 +973,22 @@ pub fn flight_lines(study: &Study) -> String {
                 state("soc"),
                 state("curve_offset_v"),
             );
+            if let Some(r) = &f.capacity_reading {
+                let carried = f
+                    .capacity_carried
+                    .as_ref()
+                    .map_or_else(|| "-".to_owned(), |c| format!("{:.3}", c.1));
+                let reading = match r {
+                    Ok(r) => format!(
+                        "{:.3} (estimator's {:.3}, expected left {:+.3} Ah)",
+                        r.factor(),
+                        state("usable_capacity_ah") / r.model_capacity_ah,
+                        r.expected_left_ah
+                    ),
+                    Err(e) => format!("none: {}", e.chars().take(60).collect::<String>()),
+                };
+                let _ = writeln!(s, "     pack history: carried {carried}, reading {reading}");
+            }
         }
     }
     s

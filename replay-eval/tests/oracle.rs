@@ -11,6 +11,7 @@ fn opts(families: &str, seeds: std::ops::Range<u64>) -> StudyOptions {
         families: select_families(families).unwrap(),
         threads: 2,
         config: OnlineConfig::default(),
+        pack_history: false,
     }
 }
 

@@ -11,6 +11,7 @@ fn small(families: &str, seeds: std::ops::Range<u64>) -> replay_eval::Study {
             families: select_families(families).unwrap(),
             threads: 2,
             config: OnlineConfig::default(),
+            pack_history: false,
         },
         &|| {},
     )
@@ -150,6 +151,7 @@ fn the_sensor_ablation_flies_the_same_worlds() {
         families: select_families("lipo/vonly-5hz/paper").unwrap(),
         threads: 1,
         config: OnlineConfig::default(),
+        pack_history: false,
     };
     let errors = |sensors| {
         let s = replay_eval::study_with(&opts, sensors, &|| {});
@@ -217,5 +219,48 @@ fn config_specs_override_the_defaults_by_name() {
     ] {
         let e = replay_eval::config_from_spec(bad).unwrap_err();
         assert!(e.contains(says), "{bad}: {e}");
+    }
+}
+
+/// The packs' history (`replay --pack-history`) on a faded pack (tuning seed 0, a LiPo pack
+/// logged at 1 Hz): each pack's first flight is flown exactly as without it and measures a
+/// capacity below the model's, and its second flight starts from that reading and misses less
+/// at half the flight.
+#[test]
+fn a_packs_history_carries_a_fade_to_its_next_flight() {
+    let fam = flight_sim::Family::parse("lipo/lab-1hz/paper").unwrap();
+    let p = replay_eval::prepare_scenario(&fam, 0).unwrap();
+    assert!(matches!(p.condition, Condition::CapacityFade { fraction } if fraction > 0.05));
+    let without = replay_eval::replay_scenario(&p, &OnlineConfig::default());
+    let with = replay_eval::replay_scenario_with_history(&p, &OnlineConfig::default(), true);
+    let err50 = |f: &replay::FlightReplay| {
+        let c = &f.checkpoints[1];
+        ((c.predicted_remaining_s.unwrap() - c.true_remaining_s) / f.duration_s()).abs()
+    };
+    for (first, second) in [
+        ("9-hover-A", "11-ceiling-A"),
+        ("10-attach-B", "12-climbs-B"),
+    ] {
+        let get = |o: &replay_eval::ScenarioOutcome, n: &str| {
+            o.flights.iter().find(|f| f.name == n).unwrap().clone()
+        };
+        let (a0, a1) = (get(&without, first), get(&with, first));
+        assert_eq!(
+            a0.checkpoints, a1.checkpoints,
+            "{first} flies as without history"
+        );
+        assert!(a1.capacity_carried.is_none());
+        let reading = a1.capacity_reading.clone().unwrap().unwrap();
+        assert!(reading.factor() < 0.98, "{first}: {reading:?}");
+        let (b0, b1) = (get(&without, second), get(&with, second));
+        let (from, factor) = b1.capacity_carried.clone().unwrap();
+        assert_eq!(from, first);
+        assert!((factor - reading.factor()).abs() < 1e-12);
+        assert!(
+            err50(&b1) < err50(&b0) - 0.01,
+            "{second}: {:.1} % with history, {:.1} % without",
+            100.0 * err50(&b1),
+            100.0 * err50(&b0)
+        );
     }
 }

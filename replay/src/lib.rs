@@ -55,6 +55,7 @@
 //! prints; it depends on no simulator (the evidence lives in `replay-eval`).
 
 pub mod cutoff;
+pub mod history;
 pub mod methods;
 pub mod online;
 pub mod score;
@@ -89,6 +90,11 @@ pub trait OnlineBuilder: Sync {
 pub trait OnlinePredictor: Predictor {
     /// Named internal states (state of charge, capacity, resistance, …) as they stand.
     fn final_state(&self) -> Vec<(&'static str, f64)>;
+
+    /// The pack model it flies, when it has one ([`history`] reads a capacity against it).
+    fn pack(&self) -> Option<estimator::online::BatteryModel> {
+        None
+    }
 }
 
 /// What a replay needs: the parameter file's estimator parameters and, when the online
@@ -131,8 +137,26 @@ pub fn online_from_file(
 
 /// Replays one flight; `Err` with the reason when it is not scored.
 pub fn replay_flight(flight: &Flight, config: &ReplayConfig<'_>) -> Result<FlightReplay, String> {
+    replay_flight_with_history(flight, config, None)
+}
+
+/// [`replay_flight`] with the packs' history: the online estimator flies the capacity the
+/// pack's last flight measured ([`history`]), and this flight's reading, or why it gives
+/// none, is recorded in `history` and in [`FlightReplay::capacity_reading`]. `None`: no
+/// history, as [`replay_flight`].
+pub fn replay_flight_with_history(
+    flight: &Flight,
+    config: &ReplayConfig<'_>,
+    history: Option<&mut history::PackHistory>,
+) -> Result<FlightReplay, String> {
     let span = cutoff::detect(flight)?;
-    let setup = FlightSetup::of(flight);
+    let mut setup = FlightSetup::of(flight);
+    let pack_id = flight.meta.battery_id.clone().unwrap_or_default();
+    let carried = history
+        .as_deref()
+        .and_then(|h| h.get(&pack_id))
+        .map(|r| (r.flight.clone(), r.factor()));
+    setup.capacity_reading = carried.as_ref().map(|c| (c.1, history::READING_SIGMA));
     let plan = methods::mission_plan(flight, &span);
     let mut unavailable: Vec<(&'static str, String)> = Vec::new();
     let mut online: Option<Box<dyn OnlinePredictor>> = match config.online {
@@ -194,6 +218,8 @@ pub fn replay_flight(flight: &Flight, config: &ReplayConfig<'_>) -> Result<Fligh
         .iter()
         .map(|m| methods_series::Acc::new(m))
         .collect();
+    let mut last_online: Option<Prediction> = None;
+    let mut empty_from_s: Option<f64> = None;
     for k in 0..n {
         let t = s.time_s[k];
         if t > span.end_s {
@@ -208,6 +234,16 @@ pub fn replay_flight(flight: &Flight, config: &ReplayConfig<'_>) -> Result<Fligh
         let mut preds: [Option<Prediction>; 4] = [None; 4];
         if let Some(o) = online.as_mut() {
             preds[0] = o.update(&sample).filter(|p| p.remaining_s.is_finite());
+            if let Some(p) = preds[0] {
+                if t >= span.takeoff_s {
+                    if p.remaining_s <= history::EMPTY_S {
+                        empty_from_s.get_or_insert(t);
+                    } else {
+                        empty_from_s = None;
+                    }
+                }
+                last_online = Some(p);
+            }
         }
         for (i, b) in baselines.iter_mut().enumerate() {
             if let Some(b) = b {
@@ -244,7 +280,40 @@ pub fn replay_flight(flight: &Flight, config: &ReplayConfig<'_>) -> Result<Fligh
         return Err("a checkpoint falls in a hole of the log".to_owned());
     }
     let final_state = online.as_ref().map(|o| o.final_state()).unwrap_or_default();
+    let capacity_reading = match (history, online.as_ref()) {
+        (None, _) => None,
+        (Some(_), None) => Some(Err("no online estimator ran".to_owned())),
+        (Some(h), Some(o)) => {
+            let r = match (o.pack(), last_online) {
+                (None, _) => Err("the online estimator has no pack model".to_owned()),
+                (_, None) => Err("the online estimator gave no prediction".to_owned()),
+                (Some(pack), Some(last)) => {
+                    let usable = final_state
+                        .iter()
+                        .find(|(k, _)| *k == "usable_capacity_ah")
+                        .map_or(f64::NAN, |(_, v)| *v);
+                    let power = final_state
+                        .iter()
+                        .find(|(k, _)| *k == "phase_power_w")
+                        .map_or(f64::NAN, |(_, v)| *v);
+                    let end = history::EndOfFlight {
+                        phase_power_w: power,
+                        usable_capacity_ah: usable,
+                        remaining_s: last.remaining_s,
+                        empty_from_s,
+                    };
+                    history::capacity_reading(flight, &span, pack.rated_capacity_ah, &end)
+                }
+            };
+            if let Ok(reading) = &r {
+                h.record(&pack_id, reading.clone());
+            }
+            Some(r)
+        }
+    };
     Ok(FlightReplay {
+        capacity_reading,
+        capacity_carried: carried,
         name: flight.name.clone(),
         takeoff_s: span.takeoff_s,
         end_s: span.end_s,
@@ -292,12 +361,25 @@ pub fn replay_flights(
     flights: &[Flight],
     unread: Vec<SkippedFlight>,
     config: &ReplayConfig<'_>,
+    progress: impl FnMut(usize),
+) -> Replay {
+    replay_flights_with_history(flights, unread, config, None, progress)
+}
+
+/// [`replay_flights`] with the packs' history ([`replay_flight_with_history`]): flights are
+/// replayed in the order given, so a pack's flights should come in the order they were
+/// flown.
+pub fn replay_flights_with_history(
+    flights: &[Flight],
+    unread: Vec<SkippedFlight>,
+    config: &ReplayConfig<'_>,
+    mut history: Option<&mut history::PackHistory>,
     mut progress: impl FnMut(usize),
 ) -> Replay {
     let mut scored = Vec::new();
     let mut skipped = unread;
     for (i, f) in flights.iter().enumerate() {
-        match replay_flight(f, config) {
+        match replay_flight_with_history(f, config, history.as_deref_mut()) {
             Ok(r) => scored.push(r),
             Err(reason) => skipped.push(SkippedFlight {
                 name: f.name.clone(),

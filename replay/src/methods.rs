@@ -74,6 +74,11 @@ pub struct FlightSetup {
     pub avionics_power_w: Option<f64>,
     /// Cut-off voltage, V.
     pub cutoff_voltage_v: Option<f64>,
+    /// The pack's usable capacity over its model's, as its last flight measured it, and the
+    /// reading's one-sigma ([`crate::history`]; `replay --pack-history`): the online estimator
+    /// fuses it with its capacity at the first sample. `None` (no history, or not asked for):
+    /// the model's capacity alone.
+    pub capacity_reading: Option<(f64, f64)>,
 }
 
 impl FlightSetup {
@@ -103,6 +108,7 @@ impl FlightSetup {
             payload_power_w: m.payload_power_w.unwrap_or(0.0),
             avionics_power_w: m.avionics_power_w,
             cutoff_voltage_v: m.cutoff_voltage_v,
+            capacity_reading: None,
         }
     }
 

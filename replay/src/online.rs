@@ -188,7 +188,14 @@ impl OnlineBuilder for FileOnline {
         let (battery, config) = self.flight_model(setup)?;
         let est = OnlineEstimator::new(&self.params, &battery, &config)
             .map_err(|e| format!("online estimator: {e}"))?;
-        Ok(Box::new(Online::new(est, plan_segments(plan), takeoff_s)))
+        let readings = setup
+            .capacity_reading
+            .map(|(factor, sigma)| (FilterState::CapacityScale, factor, sigma))
+            .into_iter()
+            .collect();
+        Ok(Box::new(
+            Online::new(est, plan_segments(plan), takeoff_s).with_readings(readings),
+        ))
     }
 }
 
@@ -273,6 +280,10 @@ impl Predictor for Online {
 }
 
 impl OnlinePredictor for Online {
+    fn pack(&self) -> Option<BatteryModel> {
+        Some(*self.est.battery())
+    }
+
     fn final_state(&self) -> Vec<(&'static str, f64)> {
         self.last.map_or_else(Vec::new, |e| {
             vec![
@@ -280,6 +291,7 @@ impl OnlinePredictor for Online {
                 ("usable_capacity_ah", e.usable_capacity_ah),
                 ("series_resistance_ohm", e.series_resistance_ohm),
                 ("extra_power_w", e.extra_power_w),
+                ("phase_power_w", e.phase_power_w),
                 ("samples_rejected", f64::from(e.samples_rejected)),
                 ("curve_offset_v", self.est.curve_offset_v().0),
                 ("curve_offset_sigma_v", self.est.curve_offset_v().1),

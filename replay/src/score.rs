@@ -93,6 +93,12 @@ pub struct FlightReplay {
     pub series: Vec<MethodSeries>,
     /// Estimator states at the end (online method), for the report: (name, value).
     pub final_state: Vec<(&'static str, f64)>,
+    /// With the packs' history (`replay --pack-history`): the capacity this flight measured,
+    /// or why it gave none ([`crate::history::capacity_reading`]); `None` without history.
+    pub capacity_reading: Option<Result<crate::history::CapacityReading, String>>,
+    /// With the packs' history: the flight whose reading this one flew with, and its factor
+    /// on the model's capacity; `None` when there was none.
+    pub capacity_carried: Option<(String, f64)>,
 }
 
 impl FlightReplay {
@@ -230,6 +236,21 @@ struct FlightJson<'a> {
     checkpoints: Vec<CheckpointJson<'a>>,
     unavailable: BTreeMap<&'static str, &'a str>,
     final_state: BTreeMap<&'static str, f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pack_history: Option<HistoryJson<'a>>,
+}
+
+/// A flight's part in the packs' history (`--pack-history` only).
+#[derive(Serialize)]
+struct HistoryJson<'a> {
+    /// The reading it flew with: the flight it came from and its factor on the model's
+    /// capacity.
+    carried_from: Option<&'a str>,
+    carried_factor: Option<f64>,
+    /// What it measured, or why nothing.
+    reading: Option<&'a crate::history::CapacityReading>,
+    reading_factor: Option<f64>,
+    no_reading: Option<&'a str>,
 }
 
 #[derive(Serialize)]
@@ -308,6 +329,13 @@ impl Replay {
                     .map(|(m, r)| (*m, r.as_str()))
                     .collect(),
                 final_state: f.final_state.iter().copied().collect(),
+                pack_history: f.capacity_reading.as_ref().map(|r| HistoryJson {
+                    carried_from: f.capacity_carried.as_ref().map(|c| c.0.as_str()),
+                    carried_factor: f.capacity_carried.as_ref().map(|c| c.1),
+                    reading: r.as_ref().ok(),
+                    reading_factor: r.as_ref().ok().map(crate::history::CapacityReading::factor),
+                    no_reading: r.as_ref().err().map(String::as_str),
+                }),
             })
             .collect();
         serde_json::to_value(ReplayJson {
@@ -408,6 +436,30 @@ impl Replay {
             }
             for (m, r) in &f.unavailable {
                 let _ = writeln!(s, "  {m}: {r}");
+            }
+            if let Some((from, factor)) = &f.capacity_carried {
+                let _ = writeln!(
+                    s,
+                    "  pack history: flew with the capacity {from} measured ({:.0} % of the model's)",
+                    100.0 * factor
+                );
+            }
+            match &f.capacity_reading {
+                Some(Ok(r)) => {
+                    let _ = writeln!(
+                        s,
+                        "  pack history: measured {:.3} Ah ({:.0} % of the model's {:.3} Ah; {:.3} Ah counted, {:+.3} Ah the estimator still expected at the cut-off)",
+                        r.capacity_ah,
+                        100.0 * r.factor(),
+                        r.model_capacity_ah,
+                        r.counted_ah,
+                        r.expected_left_ah
+                    );
+                }
+                Some(Err(why)) => {
+                    let _ = writeln!(s, "  pack history: no capacity reading: {why}");
+                }
+                None => {}
             }
         }
         if !self.skipped.is_empty() {

@@ -41,6 +41,13 @@ pub struct Args {
     /// some flights worse (README, "How long can it still fly?").
     #[arg(long)]
     thrust_limit_end: bool,
+    /// Carry each pack's usable capacity from one flight to its next (by `battery_id`): a
+    /// flight that logged its current and ended at the cut-off voltage measures the capacity
+    /// (the charge counted against what the estimator still expected at the end), and the
+    /// pack's next flight starts from it. Flights are taken in the order they were flown:
+    /// by `battery_cycles`, then by name with numbers compared as numbers.
+    #[arg(long)]
+    pack_history: bool,
 }
 
 /// Runs the subcommand.
@@ -87,9 +94,18 @@ pub fn run(args: Args) -> Result<()> {
     if args.json || set.flights.len() < 4 {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     }
-    let mut r = replay::replay_flights(&set.flights, unread, &config, |i| {
-        bar.set_position(i as u64)
-    });
+    let mut r = if args.pack_history {
+        let mut flights = set.flights;
+        replay::history::sort_flown(&mut flights);
+        let mut history = replay::history::PackHistory::new();
+        replay::replay_flights_with_history(&flights, unread, &config, Some(&mut history), |i| {
+            bar.set_position(i as u64)
+        })
+    } else {
+        replay::replay_flights(&set.flights, unread, &config, |i| {
+            bar.set_position(i as u64)
+        })
+    };
     bar.finish_and_clear();
     if let Err(e) = &online {
         for f in &mut r.flights {

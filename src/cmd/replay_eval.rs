@@ -29,6 +29,10 @@ pub struct Args {
     /// summary and targets).
     #[arg(long)]
     json: bool,
+    /// Carry each pack's usable capacity, measured over one held-out flight (charge counted
+    /// over the state of charge flown), to its next flight, as `replay --pack-history` does
+    #[arg(long)]
+    pack_history: bool,
 }
 
 /// Runs the subcommand.
@@ -40,6 +44,7 @@ pub fn run(args: Args) -> Result<()> {
         families,
         threads: args.threads,
         config: estimator::online::OnlineConfig::default(),
+        pack_history: args.pack_history,
     };
     let bar = indicatif::ProgressBar::new(args.scenarios);
     bar.set_style(

@@ -675,6 +675,11 @@ impl OnlineEstimator {
         (self.x[VBIAS], libm::sqrt(self.p[(VBIAS, VBIAS)].max(0.0)))
     }
 
+    /// The pack model the filter flies (after [`Self::new`]'s checks).
+    pub fn battery(&self) -> &BatteryModel {
+        &self.pack.battery
+    }
+
     /// Fuses an outside reading of one of the filter's states (`value`, with standard deviation
     /// `sigma`) as a measurement, after the first sample: a smart battery's fuel gauge (state
     /// of charge), a capacity or resistance measured on a charger, a payload's known power. The
