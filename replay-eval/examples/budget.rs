@@ -30,6 +30,7 @@ fn main() {
         threads: 2,
         config: estimator::online::OnlineConfig::default(),
         pack_history: false,
+        voltage_only: false,
     };
     let done = std::sync::atomic::AtomicUsize::new(0);
     let studies = replay_eval::study_oracles(&opts, &oracles, &|| {

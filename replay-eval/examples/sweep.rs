@@ -17,6 +17,7 @@ fn main() {
         threads: 2,
         config: config_from_env(),
         pack_history: std::env::var("SWEEP_HISTORY").is_ok_and(|v| v == "1"),
+        voltage_only: std::env::var("SWEEP_DROP_CURRENT").is_ok_and(|v| v == "1"),
     };
     let sensors = std::env::var("SWEEP_SENSORS").map_or(flight_sim::SensorErrors::Drawn, |s| {
         flight_sim::SensorErrors::parse(&s).expect("drawn, ideal-voltage, ideal-current or ideal")

@@ -2,7 +2,8 @@
 //! flight the predicted and true remaining time and the filter's state.
 //! `cargo run --release -p replay-eval --example trace -- FAMILY SEED [STEP]`
 //! (`SWEEP_SENSORS=ideal` and the like: calibrated sensors; `SWEEP_CFG`: the estimator's
-//! settings; both as in the sweep example).
+//! settings; both as in the sweep example). `SWEEP_DROP_CURRENT=1` replays the flights without
+//! their current column (a tuning family flown as a voltage-only log).
 
 use replay::OnlineBuilder;
 use replay::online::FileOnline;
@@ -25,7 +26,13 @@ fn main() {
         |_| estimator::online::OnlineConfig::default(),
         |s| replay_eval::config_from_spec(&s).expect("SWEEP_CFG"),
     );
+    let drop_current = std::env::var("SWEEP_DROP_CURRENT").is_ok_and(|v| v == "1");
     for (flight, battery) in &p.flights {
+        let mut flight = flight.clone();
+        if drop_current {
+            flight.samples.current_a = None;
+        }
+        let flight = &flight;
         let Ok(span) = replay::cutoff::detect(flight) else {
             continue;
         };

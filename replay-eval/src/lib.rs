@@ -349,6 +349,19 @@ pub struct PreparedScenario {
     pub truths: Vec<FlightTruth>,
 }
 
+impl PreparedScenario {
+    /// The same scenario with the held-out flights' current column removed (the truth, the
+    /// packs and the metadata kept): what the estimator and the baselines do with a
+    /// voltage-only log of the same flights.
+    #[must_use]
+    pub fn without_current(mut self) -> Self {
+        for (f, _) in &mut self.flights {
+            f.samples.current_a = None;
+        }
+        self
+    }
+}
+
 /// Flies a scenario's training and held-out flights and learns its packs (steps 1–3 of the
 /// crate docs).
 pub fn prepare_scenario(family: &Family, seed: u64) -> Result<PreparedScenario, EvalError> {
@@ -668,6 +681,10 @@ pub struct StudyOptions {
     pub config: OnlineConfig,
     /// Carry each pack's measured capacity to its next flight ([`replay_scenario_with_history`]).
     pub pack_history: bool,
+    /// Replay the held-out flights without their current column ([`PreparedScenario::without_current`]):
+    /// a family that logs its current flown as a voltage-only log, an ablation for telling what
+    /// the current is worth (and for studying voltage-only logs on the tuning families).
+    pub voltage_only: bool,
 }
 
 /// A group of scenarios and its replay summary.
@@ -775,6 +792,13 @@ pub fn study_with(
                     for &s in seeds.iter().skip(t).step_by(threads) {
                         let fam = family_of(s, &opts.families);
                         let r = prepare_scenario_with(&fam, s, sensors)
+                            .map(|p| {
+                                if opts.voltage_only {
+                                    p.without_current()
+                                } else {
+                                    p
+                                }
+                            })
                             .map(|p| {
                                 replay_scenario_with_history(&p, &opts.config, opts.pack_history)
                             })

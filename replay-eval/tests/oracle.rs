@@ -12,6 +12,7 @@ fn opts(families: &str, seeds: std::ops::Range<u64>) -> StudyOptions {
         threads: 2,
         config: OnlineConfig::default(),
         pack_history: false,
+        voltage_only: false,
     }
 }
 

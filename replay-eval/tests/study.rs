@@ -12,6 +12,7 @@ fn small(families: &str, seeds: std::ops::Range<u64>) -> replay_eval::Study {
             threads: 2,
             config: OnlineConfig::default(),
             pack_history: false,
+            voltage_only: false,
         },
         &|| {},
     )
@@ -152,6 +153,7 @@ fn the_sensor_ablation_flies_the_same_worlds() {
         threads: 1,
         config: OnlineConfig::default(),
         pack_history: false,
+        voltage_only: false,
     };
     let errors = |sensors| {
         let s = replay_eval::study_with(&opts, sensors, &|| {});
@@ -261,6 +263,34 @@ fn a_packs_history_carries_a_fade_to_its_next_flight() {
             "{second}: {:.1} % with history, {:.1} % without",
             100.0 * err50(&b1),
             100.0 * err50(&b0)
+        );
+    }
+}
+
+/// The voltage-only ablation: the same held-out flights without their current column. The
+/// baselines that need a current say so, the online estimator still predicts, and the flights,
+/// their ends and their truths are the same.
+#[test]
+fn without_current_the_same_flights_are_replayed_from_their_voltage() {
+    let fam = flight_sim::Family::parse("lipo/lab-1hz/paper").unwrap();
+    let p = replay_eval::prepare_scenario(&fam, 0).unwrap();
+    let names: Vec<String> = p.flights.iter().map(|(f, _)| f.name.clone()).collect();
+    let v = p.clone().without_current();
+    assert!(v.flights.iter().all(|(f, _)| f.samples.current_a.is_none()));
+    assert!(p.flights.iter().all(|(f, _)| f.samples.current_a.is_some()));
+    let o = replay_eval::replay_scenario(&v, &OnlineConfig::default());
+    let got: Vec<String> = o.flights.iter().map(|f| f.name.clone()).collect();
+    assert_eq!(got, names);
+    for f in &o.flights {
+        assert!(
+            f.checkpoints
+                .iter()
+                .all(|c| c.predicted_remaining_s.is_some())
+        );
+        assert!(
+            f.unavailable
+                .iter()
+                .any(|(m, r)| *m == replay::methods::PX4 && r.contains("no current"))
         );
     }
 }

@@ -45,6 +45,7 @@ pub fn run(args: Args) -> Result<()> {
         threads: args.threads,
         config: estimator::online::OnlineConfig::default(),
         pack_history: args.pack_history,
+        voltage_only: false,
     };
     let bar = indicatif::ProgressBar::new(args.scenarios);
     bar.set_style(
