@@ -20,7 +20,8 @@
 //!
 //! Main types: [`Sample`], [`Predictor`] (any estimator), [`ReplayConfig`], [`replay_flight`],
 //! [`replay_flights`], [`Replay`] (with [`Replay::to_text`], [`Replay::to_json`],
-//! [`Replay::to_csv`]).
+//! [`Replay::to_csv`]); [`history`] carries the capacity a flight measured to its pack's next
+//! flight ([`replay_flights_with_history`], `replay --pack-history`).
 //!
 //! ```
 //! use std::path::Path;
