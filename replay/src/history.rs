@@ -401,6 +401,50 @@ mod tests {
         assert!(w.contains("beyond a factor"), "{w}");
     }
 
+    /// A flight that does not name its pack neither uses a history nor leaves one; one that
+    /// does leaves its reading under its name.
+    #[test]
+    fn a_history_needs_the_packs_name() {
+        let (mut f, _) = flight(8.95, true);
+        f.meta.structure_mass_kg = Some(0.43);
+        f.meta.battery_mass_kg = Some(0.17);
+        f.meta.avionics_power_w = Some(2.4);
+        let curve = paper::reproduce().unwrap().curve;
+        let params = estimator::Params {
+            rotor_count: 4,
+            curve,
+            thrust_limit: None,
+            battery: None,
+            vehicle: None,
+        };
+        let battery = estimator::online::BatteryModel::lipo(3, 2.0).unwrap();
+        let online = crate::online::FileOnline::new(
+            params,
+            battery,
+            estimator::online::OnlineConfig::default(),
+        );
+        let config = crate::ReplayConfig {
+            params,
+            online: Some(&online),
+            chemistry: None,
+        };
+        let mut h = PackHistory::new();
+        let r = crate::replay_flight_with_history(&f, &config, Some(&mut h)).unwrap();
+        let why = r.capacity_reading.unwrap().unwrap_err();
+        assert!(why.contains("no battery_id"), "{why}");
+        assert_eq!(h.readings().count(), 0);
+        f.meta.battery_id = Some("pack-1".to_owned());
+        let r = crate::replay_flight_with_history(&f, &config, Some(&mut h)).unwrap();
+        match r.capacity_reading.unwrap() {
+            Ok(reading) => assert_eq!(h.get("pack-1"), Some(&reading)),
+            Err(why) => {
+                assert!(!why.contains("battery_id"), "{why}");
+                assert_eq!(h.readings().count(), 0);
+            }
+        }
+        assert!(r.capacity_carried.is_none());
+    }
+
     #[test]
     fn names_sort_with_their_numbers_as_numbers() {
         let mut v = vec![

@@ -152,10 +152,17 @@ pub fn replay_flight_with_history(
 ) -> Result<FlightReplay, String> {
     let span = cutoff::detect(flight)?;
     let mut setup = FlightSetup::of(flight);
-    let pack_id = flight.meta.battery_id.clone().unwrap_or_default();
+    // A history belongs to one pack: a flight that does not name its pack neither uses one
+    // nor leaves one.
+    let pack_id = flight
+        .meta
+        .battery_id
+        .clone()
+        .filter(|id| !id.trim().is_empty());
     let carried = history
         .as_deref()
-        .and_then(|h| h.get(&pack_id))
+        .zip(pack_id.as_deref())
+        .and_then(|(h, id)| h.get(id))
         .map(|r| (r.flight.clone(), r.factor()));
     setup.capacity_reading = carried.as_ref().map(|c| (c.1, history::READING_SIGMA));
     let plan = methods::mission_plan(flight, &span);
@@ -284,6 +291,10 @@ pub fn replay_flight_with_history(
     let capacity_reading = match (history, online.as_ref()) {
         (None, _) => None,
         (Some(_), None) => Some(Err("no online estimator ran".to_owned())),
+        (Some(_), Some(_)) if pack_id.is_none() => Some(Err(
+            "no battery_id in the metadata: a capacity is carried only to flights of the same pack"
+                .to_owned(),
+        )),
         (Some(h), Some(o)) => {
             let r = match (o.pack(), last_online) {
                 (None, _) => Err("the online estimator has no pack model".to_owned()),
@@ -306,8 +317,8 @@ pub fn replay_flight_with_history(
                     history::capacity_reading(flight, &span, pack.rated_capacity_ah, &end)
                 }
             };
-            if let Ok(reading) = &r {
-                h.record(&pack_id, reading.clone());
+            if let (Ok(reading), Some(id)) = (&r, pack_id.as_deref()) {
+                h.record(id, reading.clone());
             }
             Some(r)
         }
