@@ -4,26 +4,33 @@
 //! A faded pack empties sooner than its `[battery]` section says, and in flight the voltage
 //! shows it only late: at half the flight a 15 % fade moves the open-circuit voltage by a few
 //! hundredths of a volt per cell, as much as one pack's curve differs from another's (README,
-//! "How long can it still fly?"). A whole flight shows it plainly. With the current logged,
-//! the charge counted from the first sample to the last flying one, over the state of charge
-//! it took the pack through, is the pack's capacity:
+//! "How long can it still fly?"). The end of a flight shows it plainly: a pack that reaches the
+//! cut-off while the online estimator still expects charge in it holds less than the
+//! estimator thought, and one that flies on after the estimator called it empty holds more.
+//! With the current logged ([`capacity_reading`]):
 //!
-//! `C = ∫ I dt / (soc_start − soc_end)`
+//! `C = C_end · Q / (Q + Q_left)`
 //!
-//! with both states of charge read off the pack model's open-circuit curve where it is steep
-//! (full, and down the knee), from the voltage with the resistance drop added back:
-//! - start: the mean voltage and current of the samples before take-off (at rest, or idling);
-//! - end: the mean over the last [`END_WINDOW_S`] of flying, the drop over the series
-//!   resistance the online estimator ended the flight with and the RC pair scaled alike
-//!   (settled after a hover of several time constants).
+//! - `C_end`: the estimator's usable capacity at the end (the model's times its capacity
+//!   scale, which the flight may already have moved);
+//! - `Q`: the charge counted from the first sample to the last flying one;
+//! - `Q_left`: the charge the estimator still expected at the cut-off, its remaining time
+//!   there times the mean current of the last [`END_WINDOW_S`]; or, when it had called the
+//!   pack empty ([`EMPTY_S`]) before the end, minus the charge counted since.
 //!
-//! A reading needs a logged current, samples on the ground before take-off and a discharge of
-//! at least [`MIN_SOC_SPAN`]; its capacity must lie within [`PLAUSIBLE_FACTOR`] of the model's
-//! (outside, a current sensor or a curve is wrong, and the reading is refused with the reason).
-//! [`PackHistory`] keeps the last reading of each pack (`battery_id`) as a factor on its
-//! model's capacity; `replay --pack-history` flies a pack's next flight with it. The same
+//! A reading is refused, with the reason, when the current is not logged, when less than
+//! [`MIN_SOC_SPAN`] of the capacity was counted, when the flight's lowest voltage over its last
+//! [`LAST_VOLTAGE_WINDOW_S`] is above the cut-off (the robot landed with charge left: its
+//! rotors ran out of thrust, or a pilot), when the pack's measured power at the end is more
+//! than [`POWER_AGREEMENT`] off the estimator's (the end moved with the load), or when the
+//! capacity is beyond [`PLAUSIBLE_FACTOR`] of the model's. [`PackHistory`] keeps the last
+//! reading of each pack (`battery_id`); `replay --pack-history` fuses it, as a factor on the
+//! model's capacity with one-sigma [`READING_SIGMA`], into the pack's next flight. The same
 //! reading is what a ground station would store after each flight and write into the
 //! parameter blob before the next: nothing here runs in flight.
+//!
+//! Measured on `replay-eval`'s worlds it helps faded packs and harms packs with an extra
+//! resistance on the held-out families, so it is off by default (README, "A pack's history").
 
 use std::collections::BTreeMap;
 
@@ -32,12 +39,13 @@ use serde::Serialize;
 
 use crate::cutoff::{CUTOFF_TOLERANCE_CELL_V, FlightSpan};
 
-/// The end of a flight the end state of charge is read over, s.
+/// The end of a flight whose mean current and power a reading uses, s.
 pub const END_WINDOW_S: f64 = 5.0;
 /// The lowest voltage over this last stretch of flying must be at the cut-off, s (an
 /// autopilot lands on a voltage filtered over about a second).
 pub const LAST_VOLTAGE_WINDOW_S: f64 = 2.0;
-/// The least state of charge a reading's flight must go through (0–1).
+/// The least charge a reading's flight must have counted, as a fraction of the estimator's
+/// capacity.
 pub const MIN_SOC_SPAN: f64 = 0.4;
 /// One-sigma of a reading, as a fraction of the capacity: the next flight's pack is not quite
 /// this one (packs of one type differ by some per cent, and one pack from flight to flight by
