@@ -320,3 +320,45 @@ fn pack_history_carries_a_reading_to_the_packs_next_flight() {
         "{text}"
     );
 }
+
+/// `replay-eval --voltage-only` replays the same scenario without its current column: the PX4
+/// and coulomb baselines, which need a current, have no median, the online estimator and the
+/// static model still have one, and the static model's is the same as with the current.
+#[test]
+fn replay_eval_voltage_only_drops_the_current_and_keeps_the_flights() {
+    let run_eval = |extra: &[&str]| -> Value {
+        let mut a = vec![
+            "replay-eval",
+            "--scenarios",
+            "1",
+            "--seed",
+            "0",
+            "--families",
+            "lipo/lab-1hz/paper",
+            "--json",
+        ];
+        a.extend_from_slice(extra);
+        serde_json::from_str(&ok(&a)).unwrap()
+    };
+    let half = |v: &Value, m: &str| -> Option<f64> {
+        let g = v["groups"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|g| g["name"].as_str().unwrap().starts_with("all"))
+            .unwrap();
+        g["summary"]["checkpoints"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|c| c["fraction"] == 0.5)
+            .unwrap()["median_abs_error_pct"][m]
+            .as_f64()
+    };
+    let with = run_eval(&[]);
+    let without = run_eval(&["--voltage-only"]);
+    assert!(half(&with, "px4").is_some() && half(&with, "coulomb").is_some());
+    assert!(half(&without, "px4").is_none() && half(&without, "coulomb").is_none());
+    assert!(half(&without, "online").is_some());
+    assert_eq!(half(&with, "static_model"), half(&without, "static_model"));
+}

@@ -33,6 +33,10 @@ pub struct Args {
     /// over the state of charge flown), to its next flight, as `replay --pack-history` does
     #[arg(long)]
     pack_history: bool,
+    /// Replay the held-out flights without their current column (an ablation: what the
+    /// estimator and the baselines do with voltage-only logs of the same flights)
+    #[arg(long)]
+    voltage_only: bool,
 }
 
 /// Runs the subcommand.
@@ -45,7 +49,7 @@ pub fn run(args: Args) -> Result<()> {
         threads: args.threads,
         config: estimator::online::OnlineConfig::default(),
         pack_history: args.pack_history,
-        voltage_only: false,
+        voltage_only: args.voltage_only,
     };
     let bar = indicatif::ProgressBar::new(args.scenarios);
     bar.set_style(
