@@ -171,17 +171,22 @@ pub fn capacity_reading(
             "its lowest voltage over the last {LAST_VOLTAGE_WINDOW_S:.0} s is {final_v:.2} V, above its {cutoff_v:.2} V cut-off (tolerance {tolerance:.2} V): it landed with charge left (thrust, or a pilot), so its end says nothing of the capacity"
         ));
     }
-    let (mut n, mut p) = (0.0, 0.0);
+    // Over the last END_WINDOW_S: the mean power of the flying samples and the mean current.
+    let (mut n, mut p, mut n_i, mut sum_i) = (0.0, 0.0, 0.0, 0.0);
     if let Some(c) = s.current_a.as_ref() {
         for k in 0..s.len() {
             let t = s.time_s[k];
-            let flying = s.phase.as_ref().is_none_or(|ph| ph[k].is_flying());
-            if flying && t >= span.end_s - END_WINDOW_S && t <= span.end_s {
-                let w = c[k] * s.voltage_v[k];
-                if w.is_finite() {
-                    n += 1.0;
-                    p += w;
-                }
+            if t < span.end_s - END_WINDOW_S || t > span.end_s {
+                continue;
+            }
+            if c[k].is_finite() {
+                n_i += 1.0;
+                sum_i += c[k];
+            }
+            let w = c[k] * s.voltage_v[k];
+            if s.phase.as_ref().is_none_or(|ph| ph[k].is_flying()) && w.is_finite() {
+                n += 1.0;
+                p += w;
             }
         }
     }
@@ -203,16 +208,7 @@ pub fn capacity_reading(
     let expected_left_ah = match end.empty_from_s {
         Some(t) => -counted_ah(flight, t, span.end_s).unwrap_or(0.0),
         None => {
-            let current = s.current_a.as_ref().map_or(0.0, |c| {
-                let (mut n, mut sum) = (0.0, 0.0);
-                for (&t, &i) in s.time_s.iter().zip(c) {
-                    if t >= span.end_s - END_WINDOW_S && t <= span.end_s && i.is_finite() {
-                        n += 1.0;
-                        sum += i;
-                    }
-                }
-                if n > 0.0 { sum / n } else { 0.0 }
-            });
+            let current = if n_i > 0.0 { sum_i / n_i } else { 0.0 };
             current.max(0.0) * end.remaining_s.max(0.0) / 3600.0
         }
     };
@@ -263,17 +259,10 @@ impl PackHistory {
     }
 }
 
-/// The order flights were flown in, as indices into `flights`: by the pack's charge cycles
+/// Sorts `flights` into the order they were flown: by the pack's charge cycles
 /// (`battery_cycles`) where the metadata gives them, then by name with runs of digits compared
 /// as numbers (`2-hover` before `10-hover`). Flights of different packs keep that order among
 /// themselves; only a pack's own order matters to its history.
-pub fn flown_order(flights: &[Flight]) -> Vec<usize> {
-    let mut order: Vec<usize> = (0..flights.len()).collect();
-    order.sort_by(|&a, &b| flown_cmp(&flights[a], &flights[b]));
-    order
-}
-
-/// Sorts `flights` into the order they were flown ([`flown_order`]).
 pub fn sort_flown(flights: &mut [Flight]) {
     flights.sort_by(flown_cmp);
 }
