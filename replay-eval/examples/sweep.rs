@@ -3,6 +3,9 @@
 //! `SWEEP_FLIGHTS=1` also lists every flight: its error at 50 % and the filter's state of charge
 //! and curve offset when the pack reached the cut-off (a state of charge well above 0 there is a
 //! pack that ran out earlier than the learned section says: fade, cold, a knee the curve lacks).
+//! `SWEEP_TRUTH=1` adds, under each flight, its pack's true capacity and mean airborne series
+//! resistance (flight-sim's record, for the analysis only: no estimator sees it) beside the
+//! filter's at the end, and the truth beside each pack-history reading.
 //! `SWEEP_SENSORS=ideal` (or `ideal-voltage`, `ideal-current`) flies the same worlds with
 //! calibrated sensors (no per-flight scale or offset error; noise kept): the sensor ablation.
 //! `SWEEP_ORACLE=curve,power` (or `all`, `all-but-start`, …) hands the estimator those pieces
@@ -36,7 +39,8 @@ fn main() {
     };
     print!("{}", replay_eval::table(&study));
     if std::env::var_os("SWEEP_FLIGHTS").is_some() {
-        print!("{}", replay_eval::flight_lines(&study));
+        let truth = std::env::var("SWEEP_TRUTH").is_ok_and(|v| v == "1");
+        print!("{}", replay_eval::flight_lines_with(&study, truth));
     }
 }
 

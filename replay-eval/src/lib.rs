@@ -312,6 +312,10 @@ pub struct ScenarioOutcome {
     pub flights: Vec<FlightReplay>,
     /// Held-out flights not scored.
     pub skipped: Vec<SkippedFlight>,
+    /// For the harness's diagnostics only (`flight_lines`), never handed to an estimator: each
+    /// held-out flight's name with its pack's true capacity, Ah, and mean airborne series
+    /// resistance, Ω (flight-sim's record).
+    pub truth_pack: Vec<(String, f64, f64)>,
 }
 
 /// A scenario's worlds flown and its packs learned, before any estimator runs: what
@@ -602,6 +606,12 @@ fn replay_scenario_by(
         packs: prepared.packs.clone(),
         flights,
         skipped,
+        truth_pack: prepared
+            .flights
+            .iter()
+            .zip(&prepared.truths)
+            .map(|((f, _), t)| (f.name.clone(), t.capacity_ah, t.mean_airborne_series_ohm))
+            .collect(),
     }
 }
 
@@ -971,6 +981,13 @@ pub fn table(study: &Study) -> String {
 /// condition, flight, the online error at 50 % and its one-sigma band (% of the flight), the
 /// static model's error, and the filter's state of charge and curve offset at the cut-off.
 pub fn flight_lines(study: &Study) -> String {
+    flight_lines_with(study, false)
+}
+
+/// [`flight_lines`]; with `truth`, also each flight's pack as flight-sim flew it (true capacity
+/// and mean airborne series resistance, [`ScenarioOutcome::truth_pack`]) beside the filter's
+/// at the end, and the truth beside each pack-history reading: for the analysis only.
+pub fn flight_lines_with(study: &Study, truth: bool) -> String {
     use std::fmt::Write as _;
     let mut s = String::new();
     for (seed, fam, r) in &study.scenarios {
@@ -997,17 +1014,38 @@ pub fn flight_lines(study: &Study) -> String {
                 state("soc"),
                 state("curve_offset_v"),
             );
+            if truth {
+                let t = o.truth_pack.iter().find(|t| t.0 == f.name);
+                let _ = writeln!(
+                    s,
+                    "     truth: R {:.4} ohm (estimator {:.4}), capacity {:.3} Ah (estimator {:.3})",
+                    t.map_or(f64::NAN, |t| t.2),
+                    state("series_resistance_ohm"),
+                    t.map_or(f64::NAN, |t| t.1),
+                    state("usable_capacity_ah"),
+                );
+            }
             if let Some(r) = &f.capacity_reading {
                 let carried = f
                     .capacity_carried
                     .as_ref()
                     .map_or_else(|| "-".to_owned(), |c| format!("{:.3}", c.1));
+                let true_ah = o
+                    .truth_pack
+                    .iter()
+                    .find(|t| t.0 == f.name)
+                    .map(|t| t.1)
+                    .filter(|_| truth);
                 let reading = match r {
                     Ok(r) => format!(
-                        "{:.3} (estimator's {:.3}, expected left {:+.3} Ah)",
+                        "{:.3} (estimator's {:.3}, expected left {:+.3} Ah{})",
                         r.factor(),
                         state("usable_capacity_ah") / r.model_capacity_ah,
-                        r.expected_left_ah
+                        r.expected_left_ah,
+                        true_ah.map_or(String::new(), |t| format!(
+                            ", truth {:.3}",
+                            t / r.model_capacity_ah
+                        ))
                     ),
                     Err(e) => format!("none: {}", e.chars().take(60).collect::<String>()),
                 };

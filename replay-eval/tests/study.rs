@@ -294,3 +294,35 @@ fn without_current_the_same_flights_are_replayed_from_their_voltage() {
         );
     }
 }
+
+/// The analysis lines (`sweep` with `SWEEP_TRUTH=1`) give each flight's pack as flight-sim flew
+/// it only when asked. On the faded pack of tuning seed 0 the true capacity lies below the
+/// capacity the filter ended every flight with (the filter sees a fade only in part).
+#[test]
+fn the_truth_lines_appear_only_when_asked_and_show_the_fade() {
+    let s = small("lipo/lab-1hz/paper", 0..1);
+    let plain = replay_eval::flight_lines(&s);
+    let with = replay_eval::flight_lines_with(&s, true);
+    let Ok(o) = &s.scenarios[0].2 else {
+        panic!("seed 0 failed")
+    };
+    assert!(matches!(o.condition, Condition::CapacityFade { .. }));
+    assert!(!plain.contains("truth:"));
+    let truths: Vec<&str> = with.lines().filter(|l| l.contains("truth: R")).collect();
+    assert_eq!(truths.len(), o.flights.len(), "{with}");
+    for f in &o.flights {
+        let t = o.truth_pack.iter().find(|t| t.0 == f.name).unwrap();
+        let filter_ah = f
+            .final_state
+            .iter()
+            .find(|x| x.0 == "usable_capacity_ah")
+            .unwrap()
+            .1;
+        assert!(t.2 > 0.0, "{t:?}");
+        assert!(
+            t.1 < filter_ah,
+            "{}: truth {t:?}, filter {filter_ah}",
+            f.name
+        );
+    }
+}
