@@ -1038,10 +1038,11 @@ pub fn flight_lines_with(study: &Study, truth: bool) -> String {
                     .filter(|_| truth);
                 let reading = match r {
                     Ok(r) => format!(
-                        "{:.3} (estimator's {:.3}, expected left {:+.3} Ah{})",
+                        "{:.3} (estimator's {:.3}, soc {:.3} -> {:.3}{})",
                         r.factor(),
                         state("usable_capacity_ah") / r.model_capacity_ah,
-                        r.expected_left_ah,
+                        r.start_soc,
+                        r.end_soc,
                         true_ah.map_or(String::new(), |t| format!(
                             ", truth {:.3}",
                             t / r.model_capacity_ah

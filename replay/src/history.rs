@@ -4,57 +4,66 @@
 //! A faded pack empties sooner than its `[battery]` section says, and in flight the voltage
 //! shows it only late: at half the flight a 15 % fade moves the open-circuit voltage by a few
 //! hundredths of a volt per cell, as much as one pack's curve differs from another's (README,
-//! "How long can it still fly?"). The end of a flight shows it plainly: a pack that reaches the
-//! cut-off while the online estimator still expects charge in it holds less than the
-//! estimator thought, and one that flies on after the estimator called it empty holds more.
-//! With the current logged ([`capacity_reading`]):
+//! "How long can it still fly?"). The online estimator lets its curve offset absorb such a
+//! slow fall (it cannot tell a fade from the curve's shape in flight), and so its own capacity
+//! hardly moves. A whole flight, looked at after landing, tells them apart: over a deep
+//! discharge a fade makes the offset grow with the charge drawn, by the curve's slope times
+//! the charge the model did not expect to be gone. [`capacity_reading`] reads that back:
 //!
-//! `C = C_end · Q / (Q + Q_left)`
+//! `C = Q / (soc_start − soc_end)`, with
+//! `soc_end = curve⁻¹(curve(soc_filter_end) + (offset_end − offset_settled) / cells)`
 //!
-//! - `C_end`: the estimator's usable capacity at the end (the model's times its capacity
-//!   scale, which the flight may already have moved);
 //! - `Q`: the charge counted from the first sample to the last flying one;
-//! - `Q_left`: the charge the estimator still expected at the cut-off, its remaining time
-//!   there times the mean current of the last [`END_WINDOW_S`]; or, when it had called the
-//!   pack empty ([`EMPTY_S`]) before the end, minus the charge counted since.
+//! - `soc_start`: the estimator's state of charge at the first sample;
+//! - `soc_filter_end`, `offset_end`: its state of charge and curve offset at the last sample;
+//! - `offset_settled`: its curve offset [`SETTLED_AFTER_S`] after the first sample, the
+//!   pack's (and the voltage sensor's) own level against the curve, which the end's offset is
+//!   measured from;
+//! - `curve`: the battery model's open-circuit voltage per cell.
 //!
-//! A reading is refused, with the reason, when the current is not logged, when less than
-//! [`MIN_SOC_SPAN`] of the capacity was counted, when the flight's lowest voltage over its last
-//! [`LAST_VOLTAGE_WINDOW_S`] is above the cut-off (the robot landed with charge left: its
-//! rotors ran out of thrust, or a pilot), when the pack's measured power at the end is more
-//! than [`POWER_AGREEMENT`] off the estimator's (the end moved with the load), when the pack
-//! flew on after the estimator had called it empty for more than [`MAX_FLOWN_ON`] of the
-//! charge counted (the estimator misread the flight's voltage), or when the capacity is beyond
-//! [`PLAUSIBLE_FACTOR`] of the model's. [`PackHistory`] keeps the last
-//! reading of each pack (`battery_id`); `replay --pack-history` fuses it, as a factor on the
-//! model's capacity with one-sigma [`READING_SIGMA`], into the pack's next flight. The same
-//! reading is what a ground station would store after each flight and write into the
-//! parameter blob before the next: nothing here runs in flight.
+//! So the end of the flight is read on the model's curve at the voltage the pack really had
+//! there. The flight need not end at the cut-off: a robot that landed because its rotors ran
+//! out of thrust gives a reading as well. A reading is refused, with the reason, when the
+//! current is not logged, when less than [`MIN_SOC_SPAN`] of the capacity was counted, when
+//! the reading is more than [`MAX_ABOVE_MODEL`] above the model's capacity (packs come at about
+//! their rating and only lose capacity with age; a larger reading is a flight that ran past
+//! the model's empty, where the curve no longer tells the charge) or below the model's divided
+//! by [`PLAUSIBLE_FACTOR`]. [`PackHistory`] keeps the last reading of each pack
+//! (`battery_id`); `replay --pack-history` fuses it, as a factor on the model's capacity with
+//! one-sigma [`READING_SIGMA`], into the pack's next flight. The same reading is what a ground
+//! station would store after each flight and write into the parameter blob before the next:
+//! nothing here runs in flight.
 //!
-//! Measured on `replay-eval`'s worlds it helps faded packs and harms packs with an extra
-//! resistance on the held-out families, so it is off by default (README, "A pack's history").
+//! Measured on `replay-eval`'s worlds it helps faded packs most and moves some packs with an
+//! extra resistance or a cold start the wrong way, so it is off by default (README, "A pack's
+//! history").
 
 use std::collections::BTreeMap;
 
+use estimator::online::BatteryModel;
 use flightlog::Flight;
 use serde::Serialize;
 
-use crate::cutoff::{CUTOFF_TOLERANCE_CELL_V, FlightSpan};
+use crate::cutoff::FlightSpan;
 
-/// The end of a flight whose mean current and power a reading uses, s.
-pub const END_WINDOW_S: f64 = 5.0;
-/// The lowest voltage over this last stretch of flying must be at the cut-off, s (an
-/// autopilot lands on a voltage filtered over about a second).
-pub const LAST_VOLTAGE_WINDOW_S: f64 = 2.0;
+/// The curve offset the end is measured from is the estimator's this long after the first
+/// sample, s: by then it has read the pack's level against the curve (a voltage sensor's
+/// offset and scale, the pack's own curve) from its first minute of flying.
+pub const SETTLED_AFTER_S: f64 = 60.0;
 /// The least charge a reading's flight must have counted, as a fraction of the estimator's
 /// capacity.
 pub const MIN_SOC_SPAN: f64 = 0.4;
 /// One-sigma of a reading, as a fraction of the capacity: the next flight's pack is not quite
 /// this one (packs of one type differ by some per cent, and one pack from flight to flight by
 /// its temperature) and the current sensor's scale error enters the count. The online
-/// estimator fuses the reading with its own capacity (`FilterState::CapacityScale`).
+/// estimator fuses the reading with its own capacity (`FilterState::CapacityScale`). Chosen on
+/// `replay-eval`'s tuning families (seeds 0–71) over 0.03, 0.05 and 0.06.
 pub const READING_SIGMA: f64 = 0.04;
-/// A reading's capacity must lie between the model's divided and multiplied by this.
+/// A reading may lie at most this fraction above the model's capacity. Chosen on
+/// `replay-eval`'s tuning families (seeds 0–71; 1.10 and no bound let readings of 1.1–1.25
+/// through, from flights that ran past the model's empty at a low current).
+pub const MAX_ABOVE_MODEL: f64 = 0.05;
+/// A reading must lie above the model's capacity divided by this.
 pub const PLAUSIBLE_FACTOR: f64 = 2.0;
 
 /// The usable capacity one flight measured.
@@ -64,11 +73,12 @@ pub struct CapacityReading {
     pub flight: String,
     /// Charge counted from the first sample to the last flying one, Ah.
     pub counted_ah: f64,
-    /// Charge the estimator still expected when the pack reached the cut-off, Ah (negative:
-    /// the pack gave this much after the estimator had called it empty).
-    pub expected_left_ah: f64,
-    /// The pack's capacity: the estimator's at the end times
-    /// `counted_ah / (counted_ah + expected_left_ah)`, Ah.
+    /// The estimator's state of charge at the first sample.
+    pub start_soc: f64,
+    /// The state of charge at the end, read on the model's curve at the pack's voltage there
+    /// (the estimator's end state moved by its curve offset since [`SETTLED_AFTER_S`]).
+    pub end_soc: f64,
+    /// The pack's capacity, `counted_ah / (start_soc − end_soc)`, Ah.
     pub capacity_ah: f64,
     /// The pack model's capacity the flight was flown with, Ah.
     pub model_capacity_ah: f64,
@@ -81,33 +91,21 @@ impl CapacityReading {
     }
 }
 
-/// What the online estimator said at the end of a flight, for a [`capacity_reading`].
+/// What the online estimator said over a flight, for a [`capacity_reading`].
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct EndOfFlight {
-    /// Its usable capacity at the end (the model's times its capacity scale), Ah.
+pub struct FlightEstimates {
+    /// Its state of charge at the first sample.
+    pub start_soc: f64,
+    /// Its curve offset [`SETTLED_AFTER_S`] after the first sample (at the last sample of a
+    /// shorter flight), V (pack).
+    pub settled_offset_v: f64,
+    /// Its state of charge at the last sample.
+    pub end_soc: f64,
+    /// Its curve offset at the last sample, V (pack).
+    pub end_offset_v: f64,
+    /// Its usable capacity at the end, Ah.
     pub usable_capacity_ah: f64,
-    /// Its predicted remaining time at the last sample, s.
-    pub remaining_s: f64,
-    /// The first time its predicted remaining time fell to [`EMPTY_S`] or below and stayed
-    /// there, s (log time); `None` when it did not before the end.
-    pub empty_from_s: Option<f64>,
-    /// The power it flew the last phase at, W.
-    pub phase_power_w: f64,
 }
-
-/// A reading needs the measured power over the last [`END_WINDOW_S`] within this fraction of
-/// the estimator's: beyond it the end came early or late because of the load, not the pack.
-pub const POWER_AGREEMENT: f64 = 0.05;
-
-/// A reading is refused when the pack gave more than this fraction of the charge counted after
-/// the estimator had called it empty ([`EMPTY_S`]). Chosen on `replay-eval`'s tuning families
-/// (seeds 0–71, with history, against history without the rule: median at 50 % 3.50 → 3.35 %,
-/// flights worse than without history by more than 0.25 pp 39 → 34; 0.02 and 0.10 gave 3.45
-/// and 3.40 %).
-pub const MAX_FLOWN_ON: f64 = 0.05;
-
-/// A predicted remaining time at or below this says "empty now", s.
-pub const EMPTY_S: f64 = 1.0;
 
 /// Charge counted between `from` and `to` (trapezoids over the logged current), Ah.
 fn counted_ah(flight: &Flight, from: f64, to: f64) -> Option<f64> {
@@ -130,14 +128,13 @@ fn counted_ah(flight: &Flight, from: f64, to: f64) -> Option<f64> {
     Some(q / 3600.0)
 }
 
-/// The capacity `flight`, flown over `span` with a model of capacity `model_capacity_ah`,
-/// measured, from what the online estimator said at its end (`end`); the reason when it gives
-/// none.
+/// The capacity `flight`, flown over `span` with the battery model `pack`, measured, from what
+/// the online estimator said over it (`est`); the reason when it gives none.
 pub fn capacity_reading(
     flight: &Flight,
     span: &FlightSpan,
-    model_capacity_ah: f64,
-    end: &EndOfFlight,
+    pack: &BatteryModel,
+    est: &FlightEstimates,
 ) -> Result<CapacityReading, String> {
     let s = &flight.samples;
     let Some(&t0) = s.time_s.first() else {
@@ -146,105 +143,52 @@ pub fn capacity_reading(
     let Some(counted) = counted_ah(flight, t0, span.end_s) else {
         return Err("no current logged".to_owned());
     };
-    if !(end.usable_capacity_ah.is_finite() && end.usable_capacity_ah > 0.0) {
-        return Err("the online estimator ended without a capacity".to_owned());
+    let numbers = [
+        est.start_soc,
+        est.settled_offset_v,
+        est.end_soc,
+        est.end_offset_v,
+        est.usable_capacity_ah,
+    ];
+    if numbers.iter().any(|x| !x.is_finite()) || est.usable_capacity_ah <= 0.0 {
+        return Err("the online estimator ended without a state to read".to_owned());
     }
-    if counted < MIN_SOC_SPAN * end.usable_capacity_ah {
+    if counted < MIN_SOC_SPAN * est.usable_capacity_ah {
         return Err(format!(
             "counted {counted:.3} Ah, under {:.0} % of the {:.3} Ah the estimator flew: too shallow a discharge to read the capacity",
             100.0 * MIN_SOC_SPAN,
-            end.usable_capacity_ah
+            est.usable_capacity_ah
         ));
     }
-    // Only an end at the cut-off voltage says the pack was empty: a robot that landed because
-    // its rotors ran out of thrust, or for any other reason, left charge in it.
-    let Some(cutoff_v) = flight.meta.cutoff_voltage_v else {
-        return Err("no cutoff_voltage_v in the metadata to tell an empty pack".to_owned());
-    };
-    let last: Vec<f64> = (0..s.len())
-        .filter(|&k| {
-            let t = s.time_s[k];
-            s.phase.as_ref().is_none_or(|ph| ph[k].is_flying())
-                && t >= span.end_s - LAST_VOLTAGE_WINDOW_S
-                && t <= span.end_s
-        })
-        .map(|k| s.voltage_v[k])
-        .collect();
-    let final_v = last.iter().copied().fold(f64::NAN, f64::min);
-    let tolerance = flight
-        .meta
-        .cells
-        .map_or(0.02 * cutoff_v, |c| CUTOFF_TOLERANCE_CELL_V * f64::from(c));
-    if final_v.is_nan() || final_v > cutoff_v + tolerance {
+    let cells = f64::from(pack.cells);
+    let end_ocv_cell_v =
+        pack.ocv_cell_at(est.end_soc) + (est.end_offset_v - est.settled_offset_v) / cells;
+    let end_soc = pack.soc_for_ocv_cell(end_ocv_cell_v);
+    let span_soc = est.start_soc - end_soc;
+    let model_capacity_ah = pack.rated_capacity_ah;
+    let capacity_ah = counted / span_soc;
+    if !(span_soc > 0.0 && capacity_ah.is_finite()) {
         return Err(format!(
-            "its lowest voltage over the last {LAST_VOLTAGE_WINDOW_S:.0} s is {final_v:.2} V, above its {cutoff_v:.2} V cut-off (tolerance {tolerance:.2} V): it landed with charge left (thrust, or a pilot), so its end says nothing of the capacity"
+            "the end reads at {end_soc:.3} of the charge on the model's curve, not below the start's {:.3}",
+            est.start_soc
         ));
     }
-    // Over the last END_WINDOW_S: the mean power of the flying samples and the mean current.
-    let (mut n, mut p, mut n_i, mut sum_i) = (0.0, 0.0, 0.0, 0.0);
-    if let Some(c) = s.current_a.as_ref() {
-        for k in 0..s.len() {
-            let t = s.time_s[k];
-            if t < span.end_s - END_WINDOW_S || t > span.end_s {
-                continue;
-            }
-            if c[k].is_finite() {
-                n_i += 1.0;
-                sum_i += c[k];
-            }
-            let w = c[k] * s.voltage_v[k];
-            if s.phase.as_ref().is_none_or(|ph| ph[k].is_flying()) && w.is_finite() {
-                n += 1.0;
-                p += w;
-            }
-        }
-    }
-    if n == 0.0 || end.phase_power_w.is_nan() || end.phase_power_w <= 0.0 {
-        return Err("no measured or estimated power at the end".to_owned());
-    }
-    let measured_w = p / n;
-    let off = measured_w / end.phase_power_w - 1.0;
-    if off.abs() > POWER_AGREEMENT {
+    if capacity_ah > model_capacity_ah * (1.0 + MAX_ABOVE_MODEL) {
         return Err(format!(
-            "the pack gave {measured_w:.1} W at the end against the estimator's {:.1} W ({:+.0} %, beyond {:.0} %): the end moved with the load, not the pack",
-            end.phase_power_w,
-            100.0 * off,
-            100.0 * POWER_AGREEMENT
+            "measured {capacity_ah:.3} Ah, more than {:.0} % above the model's {model_capacity_ah:.3} Ah: the flight ran past the model's empty ({end_ocv_cell_v:.3} V per cell at the end), where the curve no longer tells the charge",
+            100.0 * MAX_ABOVE_MODEL
         ));
     }
-    // The charge the estimator still expected when the pack reached the cut-off (positive),
-    // or the charge the pack gave after the estimator had called it empty (negative).
-    let expected_left_ah = match end.empty_from_s {
-        Some(t) => -counted_ah(flight, t, span.end_s).unwrap_or(0.0),
-        None => {
-            let current = if n_i > 0.0 { sum_i / n_i } else { 0.0 };
-            current.max(0.0) * end.remaining_s.max(0.0) / 3600.0
-        }
-    };
-    // A pack that flew on long after the estimator had called it empty shows an estimator
-    // that misread the flight's voltage (a sag it took for a low charge), not a pack larger
-    // than its model: packs leave the factory at about their rating and only lose capacity.
-    if -expected_left_ah > MAX_FLOWN_ON * counted {
+    if capacity_ah < model_capacity_ah / PLAUSIBLE_FACTOR {
         return Err(format!(
-            "the pack gave {:.3} Ah after the estimator had called it empty, over {:.0} % of the {counted:.3} Ah counted: the estimator misread this flight's voltage, so its end says nothing of the capacity",
-            -expected_left_ah,
-            100.0 * MAX_FLOWN_ON
-        ));
-    }
-    let factor = counted / (counted + expected_left_ah);
-    let capacity_ah = end.usable_capacity_ah * factor;
-    if !(capacity_ah.is_finite()
-        && capacity_ah >= model_capacity_ah / PLAUSIBLE_FACTOR
-        && capacity_ah <= model_capacity_ah * PLAUSIBLE_FACTOR)
-    {
-        return Err(format!(
-            "measured {capacity_ah:.3} Ah against the model's {model_capacity_ah:.3} Ah, beyond a factor {PLAUSIBLE_FACTOR}: a current sensor or a curve is wrong"
+            "measured {capacity_ah:.3} Ah against the model's {model_capacity_ah:.3} Ah, below a factor {PLAUSIBLE_FACTOR}: a current sensor or a curve is wrong"
         ));
     }
     Ok(CapacityReading {
         flight: flight.name.clone(),
         counted_ah: counted,
-        expected_left_ah,
+        start_soc: est.start_soc,
+        end_soc,
         capacity_ah,
         model_capacity_ah,
     })
@@ -362,64 +306,75 @@ mod tests {
         (f, span)
     }
 
-    fn end(remaining_s: f64, empty_from_s: Option<f64>, phase_power_w: f64) -> EndOfFlight {
-        EndOfFlight {
+    /// The estimator's view of a flight that ended at `filter_end_soc` while the pack's voltage
+    /// there was that of `true_end_soc` on the 3-cell LiPo curve, its level `settled_v` above
+    /// the curve throughout.
+    fn est(filter_end_soc: f64, true_end_soc: f64, settled_v: f64) -> FlightEstimates {
+        let pack = BatteryModel::lipo(3, 2.0).unwrap();
+        let gap_cell_v = pack.ocv_cell_at(true_end_soc) - pack.ocv_cell_at(filter_end_soc);
+        FlightEstimates {
+            start_soc: 1.0,
+            settled_offset_v: settled_v,
+            end_soc: filter_end_soc,
+            end_offset_v: settled_v + 3.0 * gap_cell_v,
             usable_capacity_ah: 2.0,
-            remaining_s,
-            empty_from_s,
-            phase_power_w,
         }
     }
 
-    #[test]
-    fn the_charge_left_at_the_cut_off_lowers_the_capacity() {
-        let (f, span) = flight(8.95, true);
-        // 0.5 A over the ground's 5 s (the trapezoid into the first hover sample adds 4.75 A·s),
-        // 10 A over 600 s; the estimator expected 60 s more at the last 5 s's 10 A.
-        let counted = (0.5 * 4.0 + 0.5 * (0.5 + 10.0) + 10.0 * 600.0) / 3600.0;
-        let left = 10.0 * 60.0 / 3600.0;
-        let r = capacity_reading(&f, &span, 2.2, &end(60.0, None, 90.0)).unwrap();
-        assert!((r.counted_ah - counted).abs() < 1e-9, "{}", r.counted_ah);
-        assert!((r.expected_left_ah - left).abs() < 1e-9);
-        assert!((r.capacity_ah - 2.0 * counted / (counted + left)).abs() < 1e-9);
-        assert!((r.factor() - r.capacity_ah / 2.2).abs() < 1e-12);
-    }
+    /// 0.5 A over the ground's 5 s (the trapezoid into the first hover sample adds 4.75 A·s),
+    /// 10 A over 600 s.
+    const COUNTED_AH: f64 = (0.5 * 4.0 + 0.5 * (0.5 + 10.0) + 10.0 * 600.0) / 3600.0;
 
     #[test]
-    fn charge_given_after_the_estimator_called_it_empty_raises_the_capacity() {
-        let (f, span) = flight(8.95, true);
-        let r = capacity_reading(&f, &span, 2.0, &end(0.0, Some(585.0), 90.0)).unwrap();
-        // 20 s at 10 A past the call (trapezoids from 585 s to 605 s): 3.3 % of the count.
-        assert!((r.expected_left_ah + 10.0 * 20.0 / 3600.0).abs() < 1e-9);
-        assert!(r.capacity_ah > 2.0);
+    fn an_offset_grown_over_the_flight_reads_as_a_smaller_capacity() {
+        let (f, span) = flight(9.6, true);
+        let pack = BatteryModel::lipo(3, 2.0).unwrap();
+        // The filter ended at 20 % of the charge, its offset down to the curve's voltage at 5 %:
+        // the pack gave its count over 95 % of its charge, not 80 %. It need not have reached
+        // the cut-off (9.6 V here).
+        let r = capacity_reading(&f, &span, &pack, &est(0.2, 0.05, 0.0)).unwrap();
+        assert!((r.counted_ah - COUNTED_AH).abs() < 1e-9, "{}", r.counted_ah);
+        assert!((r.end_soc - 0.05).abs() < 1e-6, "{}", r.end_soc);
+        assert!((r.capacity_ah - COUNTED_AH / 0.95).abs() < 1e-6, "{r:?}");
+        assert!((r.factor() - r.capacity_ah / 2.0).abs() < 1e-12);
+        // A pack whose level sits 0.1 V above the curve from the start reads the same.
+        let same = capacity_reading(&f, &span, &pack, &est(0.2, 0.05, 0.1)).unwrap();
+        assert!((same.capacity_ah - r.capacity_ah).abs() < 1e-9);
+        // No offset grown: the filter's own end.
+        let own = capacity_reading(&f, &span, &pack, &est(0.15, 0.15, 0.0)).unwrap();
+        assert!(
+            (own.capacity_ah - COUNTED_AH / 0.85).abs() < 1e-6,
+            "{own:?}"
+        );
     }
 
     #[test]
     fn a_reading_is_refused_with_its_reason() {
-        let why = |f: (Flight, FlightSpan), e: EndOfFlight| {
-            capacity_reading(&f.0, &f.1, 2.0, &e).unwrap_err()
+        let (f, span) = flight(8.95, true);
+        let why = |pack: BatteryModel, e: FlightEstimates| {
+            capacity_reading(&f, &span, &pack, &e).unwrap_err()
         };
-        // Landed at 9.6 V: charge left, whatever the estimator expected.
-        let w = why(flight(9.6, true), end(60.0, None, 90.0));
-        assert!(w.contains("landed with charge left"), "{w}");
-        // The estimator flew 120 W where the pack gave about 90 W.
-        let w = why(flight(8.95, true), end(60.0, None, 120.0));
-        assert!(w.contains("moved with the load"), "{w}");
-        // 60 s at 10 A past the estimator's "empty": 10 % of the count, beyond MAX_FLOWN_ON.
-        let w = why(flight(8.95, true), end(0.0, Some(545.0), 90.0));
-        assert!(w.contains("misread this flight's voltage"), "{w}");
+        let lipo = |ah: f64| BatteryModel::lipo(3, ah).unwrap();
         // No current: nothing to count.
-        let w = why(flight(8.95, false), end(60.0, None, 90.0));
+        let (g, gspan) = flight(8.95, false);
+        let w = capacity_reading(&g, &gspan, &lipo(2.0), &est(0.2, 0.05, 0.0)).unwrap_err();
         assert!(w.contains("no current"), "{w}");
-        // A capacity three times the model's.
-        let w = capacity_reading(
-            &flight(8.95, true).0,
-            &flight(8.95, true).1,
-            0.6,
-            &end(0.0, None, 90.0),
-        )
-        .unwrap_err();
-        assert!(w.contains("beyond a factor"), "{w}");
+        // 1.67 Ah counted of a 5 Ah pack.
+        let mut shallow = est(0.2, 0.05, 0.0);
+        shallow.usable_capacity_ah = 5.0;
+        let w = why(lipo(2.0), shallow);
+        assert!(w.contains("too shallow"), "{w}");
+        // 1.76 Ah read on a 1.5 Ah model: 17 % above it.
+        let w = why(lipo(1.5), est(0.2, 0.05, 0.0));
+        assert!(w.contains("past the model's empty"), "{w}");
+        // 1.76 Ah read on a 4 Ah model.
+        let w = why(lipo(4.0), est(0.2, 0.05, 0.0));
+        assert!(w.contains("below a factor"), "{w}");
+        // A state the estimator did not give.
+        let mut lost = est(0.2, 0.05, 0.0);
+        lost.start_soc = f64::NAN;
+        let w = why(lipo(2.0), lost);
+        assert!(w.contains("without a state"), "{w}");
     }
 
     /// A flight that does not name its pack neither uses a history nor leaves one; one that

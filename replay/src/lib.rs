@@ -226,8 +226,6 @@ pub fn replay_flight_with_history(
         .iter()
         .map(|m| methods_series::Acc::new(m))
         .collect();
-    let mut last_online: Option<Prediction> = None;
-    let mut empty_from_s: Option<f64> = None;
     for k in 0..n {
         let t = s.time_s[k];
         if t > span.end_s {
@@ -242,16 +240,6 @@ pub fn replay_flight_with_history(
         let mut preds: [Option<Prediction>; 4] = [None; 4];
         if let Some(o) = online.as_mut() {
             preds[0] = o.update(&sample).filter(|p| p.remaining_s.is_finite());
-            if let Some(p) = preds[0] {
-                if t >= span.takeoff_s {
-                    if p.remaining_s <= history::EMPTY_S {
-                        empty_from_s.get_or_insert(t);
-                    } else {
-                        empty_from_s = None;
-                    }
-                }
-                last_online = Some(p);
-            }
         }
         for (i, b) in baselines.iter_mut().enumerate() {
             if let Some(b) = b {
@@ -296,25 +284,23 @@ pub fn replay_flight_with_history(
                 .to_owned(),
         )),
         (Some(h), Some(o)) => {
-            let r = match (o.pack(), last_online) {
-                (None, _) => Err("the online estimator has no pack model".to_owned()),
-                (_, None) => Err("the online estimator gave no prediction".to_owned()),
-                (Some(pack), Some(last)) => {
-                    let usable = final_state
-                        .iter()
-                        .find(|(k, _)| *k == "usable_capacity_ah")
-                        .map_or(f64::NAN, |(_, v)| *v);
-                    let power = final_state
-                        .iter()
-                        .find(|(k, _)| *k == "phase_power_w")
-                        .map_or(f64::NAN, |(_, v)| *v);
-                    let end = history::EndOfFlight {
-                        phase_power_w: power,
-                        usable_capacity_ah: usable,
-                        remaining_s: last.remaining_s,
-                        empty_from_s,
+            let r = match o.pack() {
+                None => Err("the online estimator has no pack model".to_owned()),
+                Some(pack) => {
+                    let state = |name: &str| {
+                        final_state
+                            .iter()
+                            .find(|(k, _)| *k == name)
+                            .map_or(f64::NAN, |(_, v)| *v)
                     };
-                    history::capacity_reading(flight, &span, pack.rated_capacity_ah, &end)
+                    let est = history::FlightEstimates {
+                        start_soc: state("start_soc"),
+                        settled_offset_v: state("settled_curve_offset_v"),
+                        end_soc: state("soc"),
+                        end_offset_v: state("curve_offset_v"),
+                        usable_capacity_ah: state("usable_capacity_ah"),
+                    };
+                    history::capacity_reading(flight, &span, &pack, &est)
                 }
             };
             if let (Ok(reading), Some(id)) = (&r, pack_id.as_deref()) {

@@ -210,6 +210,13 @@ pub struct Online {
     /// Outside readings of a state still to fuse, after the first valid sample
     /// ([`OnlineEstimator::observe_state`]).
     readings: Vec<(FilterState, f64, f64)>,
+    /// The time and state of charge of the first valid estimate.
+    start: Option<(f64, f64)>,
+    /// The curve offset [`crate::history::SETTLED_AFTER_S`] after the first valid estimate, V
+    /// (pack); until then the last one.
+    settled_offset_v: f64,
+    /// [`Self::settled_offset_v`] is final.
+    settled: bool,
 }
 
 impl Online {
@@ -222,6 +229,9 @@ impl Online {
             plan_set: false,
             last: None,
             readings: Vec::new(),
+            start: None,
+            settled_offset_v: f64::NAN,
+            settled: false,
         }
     }
 
@@ -266,6 +276,11 @@ impl Predictor for Online {
             let _ = self.est.observe_state(state, value, sigma);
         }
         self.last = Some(e);
+        let (t0, _) = *self.start.get_or_insert((s.time_s, e.soc));
+        if !self.settled {
+            self.settled_offset_v = self.est.curve_offset_v().0;
+            self.settled = s.time_s >= t0 + crate::history::SETTLED_AFTER_S;
+        }
         Some(match (e.remaining_plan_s, e.remaining_plan_sigma_s) {
             (Some(r), sigma) => Prediction {
                 remaining_s: r,
@@ -295,6 +310,8 @@ impl OnlinePredictor for Online {
                 ("samples_rejected", f64::from(e.samples_rejected)),
                 ("curve_offset_v", self.est.curve_offset_v().0),
                 ("curve_offset_sigma_v", self.est.curve_offset_v().1),
+                ("start_soc", self.start.map_or(f64::NAN, |x| x.1)),
+                ("settled_curve_offset_v", self.settled_offset_v),
             ]
         })
     }

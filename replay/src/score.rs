@@ -448,12 +448,13 @@ impl Replay {
                 Some(Ok(r)) => {
                     let _ = writeln!(
                         s,
-                        "  pack history: measured {:.3} Ah ({:.0} % of the model's {:.3} Ah; {:.3} Ah counted, {:+.3} Ah the estimator still expected at the cut-off)",
+                        "  pack history: measured {:.3} Ah ({:.0} % of the model's {:.3} Ah; {:.3} Ah counted from {:.0} % of the charge to {:.0} %, the end read on the curve at the pack's voltage)",
                         r.capacity_ah,
                         100.0 * r.factor(),
                         r.model_capacity_ah,
                         r.counted_ah,
-                        r.expected_left_ah
+                        100.0 * r.start_soc,
+                        100.0 * r.end_soc
                     );
                 }
                 Some(Err(why)) => {

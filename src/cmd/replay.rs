@@ -42,8 +42,8 @@ pub struct Args {
     #[arg(long)]
     thrust_limit_end: bool,
     /// Carry each pack's usable capacity from one flight to its next (by `battery_id`): a
-    /// flight that logged its current and ended at the cut-off voltage measures the capacity
-    /// (the charge counted against what the estimator still expected at the end), and the
+    /// flight that logged its current measures the capacity (the charge counted over the drop
+    /// in state of charge, its end read on the curve at the pack's voltage there), and the
     /// pack's next flight starts from it. Flights are taken in the order they were flown:
     /// by `battery_cycles`, then by name with numbers compared as numbers.
     #[arg(long)]

@@ -30,7 +30,8 @@ pub struct Args {
     #[arg(long)]
     json: bool,
     /// Carry each pack's usable capacity, measured over one held-out flight (charge counted
-    /// over the state of charge flown), to its next flight, as `replay --pack-history` does
+    /// over the drop in state of charge, the end read on the curve at the pack's voltage), to
+    /// its next flight, as `replay --pack-history` does
     #[arg(long)]
     pack_history: bool,
     /// Replay the held-out flights without their current column (an ablation: what the
