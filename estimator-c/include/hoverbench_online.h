@@ -26,6 +26,7 @@ extern "C" {
 #define HB_ERR_MODEL (-5)
 #define HB_ERR_NOT_INITIALISED (-6)
 #define HB_ERR_PLAN (-7)
+#define HB_ERR_OBSERVE (-8)
 
 /* Bits of hb_online_estimate.flags (and of hb_online_update's result). */
 #define HB_FLAG_NOT_INITIALISED 1u
@@ -52,6 +53,15 @@ extern "C" {
 #define HB_SEGMENT_HOVER_UNTIL_RESERVE 3u
 #define HB_SEGMENT_ATTACHED_UNTIL_RESERVE 4u
 #define HB_SEGMENT_HOVER_UNTIL_EMPTY 5u
+
+/* States for hb_online_observe: state of charge (0..1), series resistance and usable capacity
+ * over the battery model's, power above the model's hover power (W), offset of the pack's
+ * open-circuit voltage from the model's curve (V, pack). */
+#define HB_STATE_SOC 0u
+#define HB_STATE_RESISTANCE_SCALE 1u
+#define HB_STATE_CAPACITY_SCALE 2u
+#define HB_STATE_EXTRA_POWER_W 3u
+#define HB_STATE_CURVE_OFFSET_V 4u
 
 /* Opaque estimator state. */
 typedef struct hb_online_state {
@@ -105,6 +115,11 @@ int32_t hb_online_read(const hb_online_state *state, hb_online_estimate *out);
 /* Flies a plan from the next sample on; reserve_floor_fraction 0 for none. */
 int32_t hb_online_set_plan(hb_online_state *state, const hb_plan_segment *segments, size_t count,
                            double reserve_floor_fraction);
+
+/* Fuses an outside reading of one state (HB_STATE_*), value with one-sigma sigma, after the
+ * first sample: e.g. the capacity a pack's last flight measured (hoverbench replay
+ * --pack-history prints it): HB_STATE_CAPACITY_SCALE, its factor, sigma 0.04. */
+int32_t hb_online_observe(hb_online_state *state, uint32_t which, double value, double sigma);
 
 /* sizeof(hb_online_state). */
 size_t hb_online_state_size(void);

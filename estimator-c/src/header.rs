@@ -4,7 +4,9 @@ use estimator::online::{Estimate, MAX_PLAN_SEGMENTS};
 
 use crate::{
     HB_ERR_BLOB, HB_ERR_MODEL, HB_ERR_NO_BATTERY, HB_ERR_NO_VEHICLE, HB_ERR_NOT_INITIALISED,
-    HB_ERR_NULL, HB_ERR_PLAN, HB_OK, STATE_WORDS,
+    HB_ERR_NULL, HB_ERR_OBSERVE, HB_ERR_PLAN, HB_OK, HB_STATE_CAPACITY_SCALE,
+    HB_STATE_CURVE_OFFSET_V, HB_STATE_EXTRA_POWER_W, HB_STATE_RESISTANCE_SCALE, HB_STATE_SOC,
+    STATE_WORDS,
 };
 
 /// The text of `include/hoverbench_online.h` (a test checks the checked-in copy is this).
@@ -31,9 +33,20 @@ pub fn c_header() -> String {
         ("HB_ERR_MODEL", HB_ERR_MODEL),
         ("HB_ERR_NOT_INITIALISED", HB_ERR_NOT_INITIALISED),
         ("HB_ERR_PLAN", HB_ERR_PLAN),
+        ("HB_ERR_OBSERVE", HB_ERR_OBSERVE),
     ]
     .iter()
     .map(|(n, v)| format!("#define {n} ({v})\n"))
+    .collect::<String>();
+    let states = [
+        ("SOC", HB_STATE_SOC),
+        ("RESISTANCE_SCALE", HB_STATE_RESISTANCE_SCALE),
+        ("CAPACITY_SCALE", HB_STATE_CAPACITY_SCALE),
+        ("EXTRA_POWER_W", HB_STATE_EXTRA_POWER_W),
+        ("CURVE_OFFSET_V", HB_STATE_CURVE_OFFSET_V),
+    ]
+    .iter()
+    .map(|(n, v)| format!("#define HB_STATE_{n} {v}u\n"))
     .collect::<String>();
     format!(
         r#"/* hoverbench online endurance estimator: C interface of libhoverbench_online.a.
@@ -75,6 +88,10 @@ extern "C" {{
 #define HB_SEGMENT_ATTACHED_UNTIL_RESERVE 4u
 #define HB_SEGMENT_HOVER_UNTIL_EMPTY 5u
 
+/* States for hb_online_observe: state of charge (0..1), series resistance and usable capacity
+ * over the battery model's, power above the model's hover power (W), offset of the pack's
+ * open-circuit voltage from the model's curve (V, pack). */
+{states}
 /* Opaque estimator state. */
 typedef struct hb_online_state {{
     uint64_t words[HB_ONLINE_STATE_WORDS];
@@ -127,6 +144,11 @@ int32_t hb_online_read(const hb_online_state *state, hb_online_estimate *out);
 /* Flies a plan from the next sample on; reserve_floor_fraction 0 for none. */
 int32_t hb_online_set_plan(hb_online_state *state, const hb_plan_segment *segments, size_t count,
                            double reserve_floor_fraction);
+
+/* Fuses an outside reading of one state (HB_STATE_*), value with one-sigma sigma, after the
+ * first sample: e.g. the capacity a pack's last flight measured (hoverbench replay
+ * --pack-history prints it): HB_STATE_CAPACITY_SCALE, its factor, sigma 0.04. */
+int32_t hb_online_observe(hb_online_state *state, uint32_t which, double value, double sigma);
 
 /* sizeof(hb_online_state). */
 size_t hb_online_state_size(void);

@@ -5,7 +5,8 @@
 //!
 //! Main items: [`hb_online_init`] (from the parameter blob `hoverbench fit --blob` writes, with
 //! its battery and vehicle blocks), [`hb_online_update`] (one sample), [`hb_online_read`] (the
-//! estimate as [`HbOnlineEstimate`]), [`hb_online_set_plan`]. The caller owns the state: an
+//! estimate as [`HbOnlineEstimate`]), [`hb_online_set_plan`], [`hb_online_observe`] (an
+//! outside reading of one state, e.g. a pack's measured capacity). The caller owns the state: an
 //! [`HbOnlineState`] of [`STATE_WORDS`] 64-bit words, static or on the stack; nothing is
 //! allocated.
 //!
@@ -55,7 +56,9 @@ fn panic(_: &core::panic::PanicInfo<'_>) -> ! {
 #[unsafe(no_mangle)]
 pub extern "C" fn rust_eh_personality() {}
 
-use estimator::online::{Estimate, FlightPhase, OnlineConfig, OnlineEstimator, Sample};
+use estimator::online::{
+    Estimate, FilterState, FlightPhase, OnlineConfig, OnlineEstimator, Sample,
+};
 use estimator::{MissionOptions, Params, Segment};
 
 /// 64-bit words of [`HbOnlineState`]: room for the estimator ([`OnlineEstimator::STATE_SIZE_BYTES`]
@@ -83,6 +86,21 @@ pub const HB_ERR_MODEL: i32 = -5;
 pub const HB_ERR_NOT_INITIALISED: i32 = -6;
 /// The plan is empty, too long or invalid.
 pub const HB_ERR_PLAN: i32 = -7;
+/// An outside reading cannot be fused ([`hb_online_observe`]): no sample yet, an unknown
+/// state, a value that is not finite or a sigma that is not positive.
+pub const HB_ERR_OBSERVE: i32 = -8;
+
+/// [`hb_online_observe`]'s states: the state of charge (0..1).
+pub const HB_STATE_SOC: u32 = 0;
+/// The series resistance over the battery model's.
+pub const HB_STATE_RESISTANCE_SCALE: u32 = 1;
+/// The usable capacity over the battery model's (a pack's history: the factor the pack's last
+/// flight measured, `hoverbench replay --pack-history`).
+pub const HB_STATE_CAPACITY_SCALE: u32 = 2;
+/// The electrical power above the model's hover power, W.
+pub const HB_STATE_EXTRA_POWER_W: u32 = 3;
+/// The offset of the pack's open-circuit voltage from the model's curve, V (pack).
+pub const HB_STATE_CURVE_OFFSET_V: u32 = 4;
 
 /// Caller-owned storage of the estimator.
 #[repr(C)]
@@ -390,6 +408,41 @@ pub unsafe extern "C" fn hb_online_set_plan(
     match est.set_plan(&plan[..count], &options) {
         Ok(()) => HB_OK,
         Err(_) => HB_ERR_PLAN,
+    }
+}
+
+/// Fuses an outside reading of one state of the filter (`which`: `HB_STATE_*`), `value` with
+/// one-sigma `sigma`, once the filter has taken its first sample: for example the capacity a
+/// pack's last flight measured (`hoverbench replay --pack-history` prints it; fuse its factor
+/// into `HB_STATE_CAPACITY_SCALE` with sigma 0.04 right after the first sample). Returns
+/// `HB_OK` or a negative `HB_ERR_*`.
+/// # Safety
+/// `state` points to an `HbOnlineState` (or is null, which is `HB_ERR_NULL`).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn hb_online_observe(
+    state: *mut HbOnlineState,
+    which: u32,
+    value: f64,
+    sigma: f64,
+) -> i32 {
+    if state.is_null() {
+        return HB_ERR_NULL;
+    }
+    // SAFETY: the caller passes a valid `hb_online_state`.
+    let Some(est) = (unsafe { &mut *state }).estimator_mut() else {
+        return HB_ERR_NOT_INITIALISED;
+    };
+    let which = match which {
+        HB_STATE_SOC => FilterState::Soc,
+        HB_STATE_RESISTANCE_SCALE => FilterState::ResistanceScale,
+        HB_STATE_CAPACITY_SCALE => FilterState::CapacityScale,
+        HB_STATE_EXTRA_POWER_W => FilterState::ExtraPowerW,
+        HB_STATE_CURVE_OFFSET_V => FilterState::CurveOffsetV,
+        _ => return HB_ERR_OBSERVE,
+    };
+    match est.observe_state(which, value, sigma) {
+        Ok(()) => HB_OK,
+        Err(_) => HB_ERR_OBSERVE,
     }
 }
 

@@ -1,11 +1,14 @@
 //! The C interface from C: the checked-in header is the generated one, and a C program built
 //! with `cc -std=c99 -Wall -Werror` against it and the staticlib gives the Rust estimator's
-//! numbers on the same samples.
+//! numbers on the same samples (with a capacity reading fused after the first, as a pack's
+//! history does).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use estimator::online::{BatteryModel, FlightPhase, OnlineConfig, OnlineEstimator, Sample};
+use estimator::online::{
+    BatteryModel, FilterState, FlightPhase, OnlineConfig, OnlineEstimator, Sample,
+};
 use estimator::{MissionOptions, Params, Segment};
 use hoverbench_online::{HbOnlineEstimate, HbOnlineState, c_header};
 
@@ -171,6 +174,10 @@ fn c_program_agrees_with_the_rust_estimator() {
     let mut compared = 0;
     for (k, s) in samples.iter().enumerate() {
         let e = est.update(s);
+        if k == 0 {
+            est.observe_state(FilterState::CapacityScale, 0.9, 0.04)
+                .unwrap();
+        }
         if (k + 1) % 50 != 0 {
             continue;
         }
@@ -197,6 +204,8 @@ fn c_program_agrees_with_the_rust_estimator() {
         assert_eq!(f[8].parse::<u32>().unwrap(), e.flags);
         assert_eq!(f[9].parse::<u32>().unwrap(), e.samples_used);
         assert_eq!(f[10], "1");
+        // The reading moved the capacity (the model's 2.1 Ah, its prior one-sigma 5 %).
+        assert!(c[4] < 0.97 * 2.1, "sample {}: {} Ah", k + 1, c[4]);
         compared += 1;
     }
     assert!(compared > 20, "{compared}");

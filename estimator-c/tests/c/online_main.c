@@ -1,6 +1,7 @@
 /* Drives libhoverbench_online.a from C: init from a blob file, a plan, then every sample of a
- * text file ("time_s voltage_v current_a|nan phase" per line); prints the estimate every 50
- * samples for the Rust test to compare. */
+ * text file ("time_s voltage_v current_a|nan phase" per line), with a capacity reading of 0.9
+ * (one-sigma 0.04) fused after the first; prints the estimate every 50 samples for the Rust
+ * test to compare. */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -15,7 +16,7 @@ int main(int argc, char **argv) {
     size_t len;
     long n = 0;
     double t, v, i;
-    int phase, rc;
+    int phase, rc, observed = 0;
     hb_plan_segment plan[2];
 
     if (argc != 3) {
@@ -27,6 +28,8 @@ int main(int argc, char **argv) {
     if (hb_online_read(&state, &e) != HB_ERR_NOT_INITIALISED) return 3;
     if (hb_online_update(NULL, 0.0, 12.0, NAN, HB_PHASE_HOVER) != HB_ERR_NULL) return 3;
     if (hb_online_init(blob, 3, &state) != HB_ERR_BLOB) return 3;
+    if (hb_online_observe(&state, HB_STATE_CAPACITY_SCALE, 0.9, 0.04) != HB_ERR_NOT_INITIALISED)
+        return 3;
 
     f = fopen(argv[1], "rb");
     if (!f) return 4;
@@ -42,6 +45,8 @@ int main(int argc, char **argv) {
     plan[1].kind = HB_SEGMENT_HOVER_UNTIL_EMPTY;
     plan[1].value = 0.0;
     if (hb_online_set_plan(&state, plan, 2, 0.0) != HB_OK) return 5;
+    /* No sample yet: nothing to fuse a reading into. */
+    if (hb_online_observe(&state, HB_STATE_CAPACITY_SCALE, 0.9, 0.04) != HB_ERR_OBSERVE) return 7;
 
     f = fopen(argv[2], "r");
     if (!f) return 4;
@@ -50,6 +55,14 @@ int main(int argc, char **argv) {
         if (rc < 0) {
             printf("update %d\n", (int)rc);
             return 1;
+        }
+        if (!observed) {
+            /* The pack's last flight measured 90 % of the model's capacity (one-sigma 4 %). */
+            if (hb_online_observe(&state, 99u, 0.9, 0.04) != HB_ERR_OBSERVE) return 7;
+            if (hb_online_observe(&state, HB_STATE_CAPACITY_SCALE, 0.9, 0.0) != HB_ERR_OBSERVE)
+                return 7;
+            if (hb_online_observe(&state, HB_STATE_CAPACITY_SCALE, 0.9, 0.04) != HB_OK) return 7;
+            observed = 1;
         }
         if (++n % 50 == 0) {
             if (hb_online_read(&state, &e) != HB_OK) return 6;
