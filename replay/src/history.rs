@@ -13,7 +13,9 @@
 //! `C = Q / (soc_start − soc_end)`, with
 //! `soc_end = curve⁻¹(curve(soc_filter_end) + (offset_end − offset_settled) / cells)`
 //!
-//! - `Q`: the charge counted from the first sample to the last flying one;
+//! - `Q`: the charge counted from the first sample to the last flying one (without a logged
+//!   current, the charge the estimator's own current drew: its power model's, with the extra
+//!   power the voltage taught it);
 //! - `soc_start`: the estimator's state of charge at the first sample;
 //! - `soc_filter_end`, `offset_end`: its state of charge and curve offset at the last sample;
 //! - `offset_settled`: its curve offset [`SETTLED_AFTER_S`] after the first sample, the
@@ -23,8 +25,8 @@
 //!
 //! So the end of the flight is read on the model's curve at the voltage the pack really had
 //! there. The flight need not end at the cut-off: a robot that landed because its rotors ran
-//! out of thrust gives a reading as well. A reading is refused, with the reason, when the
-//! current is not logged, when less than [`MIN_SOC_SPAN`] of the capacity was counted, when
+//! out of thrust gives a reading as well. A reading is refused, with the reason, when there is
+//! no charge to count, when less than [`MIN_SOC_SPAN`] of the capacity was counted, when
 //! the reading is more than [`MAX_ABOVE_MODEL`] above the model's capacity (packs come at about
 //! their rating and only lose capacity with age; a larger reading is a flight that ran past
 //! the model's empty, where the curve no longer tells the charge) or below the model's divided
@@ -73,6 +75,9 @@ pub struct CapacityReading {
     pub flight: String,
     /// Charge counted from the first sample to the last flying one, Ah.
     pub counted_ah: f64,
+    /// The flight logged no current: [`Self::counted_ah`] is the charge the estimator's own
+    /// current drew (its power model's, with the extra power the voltage taught it).
+    pub charge_from_model: bool,
     /// The estimator's state of charge at the first sample.
     pub start_soc: f64,
     /// The state of charge at the end, read on the model's curve at the pack's voltage there
@@ -105,6 +110,9 @@ pub struct FlightEstimates {
     pub end_offset_v: f64,
     /// Its usable capacity at the end, Ah.
     pub usable_capacity_ah: f64,
+    /// The charge its current drew from the first sample to the last (the logged current, or
+    /// without one its model's), Ah.
+    pub estimator_charge_ah: f64,
 }
 
 /// Charge counted between `from` and `to` (trapezoids over the logged current), Ah.
@@ -140,8 +148,19 @@ pub fn capacity_reading(
     let Some(&t0) = s.time_s.first() else {
         return Err("no samples".to_owned());
     };
-    let Some(counted) = counted_ah(flight, t0, span.end_s) else {
-        return Err("no current logged".to_owned());
+    // Without a logged current, the charge the estimator's own current drew: its power model's,
+    // with the extra power the voltage taught it.
+    let (counted, charge_from_model) = match counted_ah(flight, t0, span.end_s) {
+        Some(q) => (q, false),
+        None if est.estimator_charge_ah.is_finite() && est.estimator_charge_ah > 0.0 => {
+            (est.estimator_charge_ah, true)
+        }
+        None => {
+            return Err(
+                "no current logged, and no charge from the estimator's model to count instead"
+                    .to_owned(),
+            );
+        }
     };
     let numbers = [
         est.start_soc,
@@ -187,6 +206,7 @@ pub fn capacity_reading(
     Ok(CapacityReading {
         flight: flight.name.clone(),
         counted_ah: counted,
+        charge_from_model,
         start_soc: est.start_soc,
         end_soc,
         capacity_ah,
@@ -198,8 +218,6 @@ pub fn capacity_reading(
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct PackHistory {
     readings: BTreeMap<String, CapacityReading>,
-    /// EXPERIMENT
-    pub resistance: BTreeMap<String, f64>,
 }
 
 impl PackHistory {
@@ -318,6 +336,7 @@ mod tests {
             end_soc: filter_end_soc,
             end_offset_v: settled_v + 3.0 * gap_cell_v,
             usable_capacity_ah: 2.0,
+            estimator_charge_ah: 1.5,
         }
     }
 
@@ -348,6 +367,23 @@ mod tests {
         );
     }
 
+    /// Without a logged current the charge is the estimator's own (its power model's current).
+    #[test]
+    fn a_voltage_only_flight_reads_with_the_estimators_charge() {
+        let (f, span) = flight(9.6, false);
+        let pack = BatteryModel::lipo(3, 2.0).unwrap();
+        let r = capacity_reading(&f, &span, &pack, &est(0.2, 0.05, 0.0)).unwrap();
+        assert!(r.charge_from_model);
+        assert!((r.counted_ah - 1.5).abs() < 1e-12);
+        assert!((r.capacity_ah - 1.5 / 0.95).abs() < 1e-6, "{r:?}");
+        let (g, gspan) = flight(9.6, true);
+        assert!(
+            !capacity_reading(&g, &gspan, &pack, &est(0.2, 0.05, 0.0))
+                .unwrap()
+                .charge_from_model
+        );
+    }
+
     #[test]
     fn a_reading_is_refused_with_its_reason() {
         let (f, span) = flight(8.95, true);
@@ -355,9 +391,11 @@ mod tests {
             capacity_reading(&f, &span, &pack, &e).unwrap_err()
         };
         let lipo = |ah: f64| BatteryModel::lipo(3, ah).unwrap();
-        // No current: nothing to count.
+        // No current, and no charge from the estimator either: nothing to count.
         let (g, gspan) = flight(8.95, false);
-        let w = capacity_reading(&g, &gspan, &lipo(2.0), &est(0.2, 0.05, 0.0)).unwrap_err();
+        let mut uncounted = est(0.2, 0.05, 0.0);
+        uncounted.estimator_charge_ah = f64::NAN;
+        let w = capacity_reading(&g, &gspan, &lipo(2.0), &uncounted).unwrap_err();
         assert!(w.contains("no current"), "{w}");
         // 1.67 Ah counted of a 5 Ah pack.
         let mut shallow = est(0.2, 0.05, 0.0);

@@ -299,6 +299,7 @@ pub fn replay_flight_with_history(
                         end_soc: state("soc"),
                         end_offset_v: state("curve_offset_v"),
                         usable_capacity_ah: state("usable_capacity_ah"),
+                        estimator_charge_ah: state("estimator_charge_ah"),
                     };
                     history::capacity_reading(flight, &span, &pack, &est)
                 }

@@ -217,6 +217,10 @@ pub struct Online {
     settled_offset_v: f64,
     /// [`Self::settled_offset_v`] is final.
     settled: bool,
+    /// The charge the estimator's current (logged, or its model's) drew since the first valid
+    /// estimate, A·s, and the last (time, current).
+    charge_as: f64,
+    last_current: Option<(f64, f64)>,
 }
 
 impl Online {
@@ -232,6 +236,8 @@ impl Online {
             start: None,
             settled_offset_v: f64::NAN,
             settled: false,
+            charge_as: 0.0,
+            last_current: None,
         }
     }
 
@@ -276,6 +282,14 @@ impl Predictor for Online {
             let _ = self.est.observe_state(state, value, sigma);
         }
         self.last = Some(e);
+        if let Some((t, i)) = self.last_current {
+            if s.time_s > t && e.current_a.is_finite() {
+                self.charge_as += 0.5 * (i + e.current_a) * (s.time_s - t);
+            }
+        }
+        if e.current_a.is_finite() {
+            self.last_current = Some((s.time_s, e.current_a));
+        }
         let (t0, _) = *self.start.get_or_insert((s.time_s, e.soc));
         if !self.settled {
             self.settled_offset_v = self.est.curve_offset_v().0;
@@ -312,6 +326,7 @@ impl OnlinePredictor for Online {
                 ("curve_offset_sigma_v", self.est.curve_offset_v().1),
                 ("start_soc", self.start.map_or(f64::NAN, |x| x.1)),
                 ("settled_curve_offset_v", self.settled_offset_v),
+                ("estimator_charge_ah", self.charge_as / 3600.0),
             ]
         })
     }

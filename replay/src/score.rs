@@ -448,11 +448,16 @@ impl Replay {
                 Some(Ok(r)) => {
                     let _ = writeln!(
                         s,
-                        "  pack history: measured {:.3} Ah ({:.0} % of the model's {:.3} Ah; {:.3} Ah counted from {:.0} % of the charge to {:.0} %, the end read on the curve at the pack's voltage)",
+                        "  pack history: measured {:.3} Ah ({:.0} % of the model's {:.3} Ah; {:.3} Ah {} from {:.0} % of the charge to {:.0} %, the end read on the curve at the pack's voltage)",
                         r.capacity_ah,
                         100.0 * r.factor(),
                         r.model_capacity_ah,
                         r.counted_ah,
+                        if r.charge_from_model {
+                            "drawn by the estimator's power model (no current logged)"
+                        } else {
+                            "counted"
+                        },
                         100.0 * r.start_soc,
                         100.0 * r.end_soc
                     );
