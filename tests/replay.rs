@@ -246,7 +246,8 @@ fn battery_learn_writes_the_section_and_keeps_the_curve() {
 /// current logged, measures the pack's capacity (the training flights the `[battery]` section
 /// was learned from are faded too, so near the section's: 95 % of it), and the pack's next
 /// flight says which flight's reading it flew with, in the text and in the JSON; without the
-/// flag there is no `pack_history`.
+/// flag there is no `pack_history`. A first flight that landed before the cut-off is not
+/// scored but measures its pack all the same.
 #[test]
 fn pack_history_carries_a_reading_to_the_packs_next_flight() {
     let dir = tempfile::tempdir().unwrap();
@@ -321,6 +322,37 @@ fn pack_history_carries_a_reading_to_the_packs_next_flight() {
             "pack history: flew with the capacity {name} measured"
         )),
         "{text}"
+    );
+    // The first flight landed before the cut-off: it is not scored, but it still measures its
+    // pack, and the next flight flies with that.
+    let sidecar = held.join(format!("{name}.toml"));
+    let meta = std::fs::read_to_string(&sidecar).unwrap();
+    assert!(meta.contains("end = \"cutoff\""), "{meta}");
+    std::fs::write(
+        &sidecar,
+        meta.replace("end = \"cutoff\"", "end = \"landed\""),
+    )
+    .unwrap();
+    let v = with(&["--json", "--pack-history"]);
+    let skipped = v["skipped"].as_array().unwrap();
+    assert_eq!(skipped.len(), 1, "{v}");
+    assert_eq!(skipped[0]["name"], first["name"]);
+    let landed = skipped[0]["pack_history"]["reading_factor"]
+        .as_f64()
+        .unwrap();
+    assert!((landed - f0).abs() < 1e-12, "{landed} vs {f0}");
+    let h1 = &v["flights"][0]["pack_history"];
+    assert_eq!(h1["carried_from"], first["name"]);
+    let text = ok(&[args.as_slice(), &["--pack-history"]].concat());
+    assert!(
+        text.contains("landed before the cut-off") && text.contains("pack history: measured"),
+        "{text}"
+    );
+    // Without the history a skipped flight has no `pack_history`.
+    assert!(
+        with(&["--json"])["skipped"][0]
+            .get("pack_history")
+            .is_none()
     );
 }
 

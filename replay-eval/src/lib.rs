@@ -481,6 +481,8 @@ pub fn prepare_scenario_with(
             skipped.push(SkippedFlight {
                 name: flight.name.clone(),
                 reason: format!("no training flight of pack {id}"),
+                capacity_reading: None,
+                capacity_carried: None,
             });
             continue;
         };
@@ -592,10 +594,7 @@ fn replay_scenario_by(
         let h = pack_history.then_some(&mut history);
         match replay::replay_flight_with_history(flight, &rc, h) {
             Ok(r) => flights.push(r),
-            Err(reason) => skipped.push(SkippedFlight {
-                name: flight.name.clone(),
-                reason,
-            }),
+            Err(k) => skipped.push(*k),
         }
     }
     ScenarioOutcome {

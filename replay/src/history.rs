@@ -25,7 +25,8 @@
 //!
 //! So the end of the flight is read on the model's curve at the voltage the pack really had
 //! there. The flight need not end at the cut-off: a robot that landed because its rotors ran
-//! out of thrust gives a reading as well. A reading is refused, with the reason, when there is
+//! out of thrust gives a reading as well, and so does a flight `replay` does not score (it
+//! landed before the cut-off): the estimator flies it only to read the pack. A reading is refused, with the reason, when there is
 //! no charge to count, when less than [`MIN_SOC_SPAN`] of the capacity was counted, when
 //! the reading is more than [`MAX_ABOVE_MODEL`] above the model's capacity (packs come at about
 //! their rating and only lose capacity with age; a larger reading is a flight that ran past
@@ -45,8 +46,6 @@ use std::collections::BTreeMap;
 use estimator::online::BatteryModel;
 use flightlog::Flight;
 use serde::Serialize;
-
-use crate::cutoff::FlightSpan;
 
 /// The curve offset the end is measured from is the estimator's this long after the first
 /// sample, s: by then it has read the pack's level against the curve (a voltage sensor's
@@ -136,11 +135,12 @@ fn counted_ah(flight: &Flight, from: f64, to: f64) -> Option<f64> {
     Some(q / 3600.0)
 }
 
-/// The capacity `flight`, flown over `span` with the battery model `pack`, measured, from what
-/// the online estimator said over it (`est`); the reason when it gives none.
+/// The capacity `flight`, flown until `end_s` (its last flying sample, log time) with the
+/// battery model `pack`, measured, from what the online estimator said over it (`est`); the
+/// reason when it gives none.
 pub fn capacity_reading(
     flight: &Flight,
-    span: &FlightSpan,
+    end_s: f64,
     pack: &BatteryModel,
     est: &FlightEstimates,
 ) -> Result<CapacityReading, String> {
@@ -150,7 +150,7 @@ pub fn capacity_reading(
     };
     // Without a logged current, the charge the estimator's own current drew: its power model's,
     // with the extra power the voltage taught it.
-    let (counted, charge_from_model) = match counted_ah(flight, t0, span.end_s) {
+    let (counted, charge_from_model) = match counted_ah(flight, t0, end_s) {
         Some(q) => (q, false),
         None if est.estimator_charge_ah.is_finite() && est.estimator_charge_ah > 0.0 => {
             (est.estimator_charge_ah, true)
@@ -297,7 +297,7 @@ mod tests {
     /// 5 s on the ground at 0.5 A, then 600 s of hover at 10 A with the voltage falling
     /// linearly from 12.0 V to `end_v` (3 cells, cut-off 9.0 V); `current` false: no current
     /// column.
-    fn flight(end_v: f64, current: bool) -> (Flight, FlightSpan) {
+    fn flight(end_v: f64, current: bool) -> (Flight, crate::cutoff::FlightSpan) {
         let mut csv = String::from(if current {
             "time_s,voltage_v,current_a,phase\n"
         } else {
@@ -351,16 +351,16 @@ mod tests {
         // The filter ended at 20 % of the charge, its offset down to the curve's voltage at 5 %:
         // the pack gave its count over 95 % of its charge, not 80 %. It need not have reached
         // the cut-off (9.6 V here).
-        let r = capacity_reading(&f, &span, &pack, &est(0.2, 0.05, 0.0)).unwrap();
+        let r = capacity_reading(&f, span.end_s, &pack, &est(0.2, 0.05, 0.0)).unwrap();
         assert!((r.counted_ah - COUNTED_AH).abs() < 1e-9, "{}", r.counted_ah);
         assert!((r.end_soc - 0.05).abs() < 1e-6, "{}", r.end_soc);
         assert!((r.capacity_ah - COUNTED_AH / 0.95).abs() < 1e-6, "{r:?}");
         assert!((r.factor() - r.capacity_ah / 2.0).abs() < 1e-12);
         // A pack whose level sits 0.1 V above the curve from the start reads the same.
-        let same = capacity_reading(&f, &span, &pack, &est(0.2, 0.05, 0.1)).unwrap();
+        let same = capacity_reading(&f, span.end_s, &pack, &est(0.2, 0.05, 0.1)).unwrap();
         assert!((same.capacity_ah - r.capacity_ah).abs() < 1e-9);
         // No offset grown: the filter's own end.
-        let own = capacity_reading(&f, &span, &pack, &est(0.15, 0.15, 0.0)).unwrap();
+        let own = capacity_reading(&f, span.end_s, &pack, &est(0.15, 0.15, 0.0)).unwrap();
         assert!(
             (own.capacity_ah - COUNTED_AH / 0.85).abs() < 1e-6,
             "{own:?}"
@@ -372,13 +372,13 @@ mod tests {
     fn a_voltage_only_flight_reads_with_the_estimators_charge() {
         let (f, span) = flight(9.6, false);
         let pack = BatteryModel::lipo(3, 2.0).unwrap();
-        let r = capacity_reading(&f, &span, &pack, &est(0.2, 0.05, 0.0)).unwrap();
+        let r = capacity_reading(&f, span.end_s, &pack, &est(0.2, 0.05, 0.0)).unwrap();
         assert!(r.charge_from_model);
         assert!((r.counted_ah - 1.5).abs() < 1e-12);
         assert!((r.capacity_ah - 1.5 / 0.95).abs() < 1e-6, "{r:?}");
         let (g, gspan) = flight(9.6, true);
         assert!(
-            !capacity_reading(&g, &gspan, &pack, &est(0.2, 0.05, 0.0))
+            !capacity_reading(&g, gspan.end_s, &pack, &est(0.2, 0.05, 0.0))
                 .unwrap()
                 .charge_from_model
         );
@@ -388,14 +388,14 @@ mod tests {
     fn a_reading_is_refused_with_its_reason() {
         let (f, span) = flight(8.95, true);
         let why = |pack: BatteryModel, e: FlightEstimates| {
-            capacity_reading(&f, &span, &pack, &e).unwrap_err()
+            capacity_reading(&f, span.end_s, &pack, &e).unwrap_err()
         };
         let lipo = |ah: f64| BatteryModel::lipo(3, ah).unwrap();
         // No current, and no charge from the estimator either: nothing to count.
         let (g, gspan) = flight(8.95, false);
         let mut uncounted = est(0.2, 0.05, 0.0);
         uncounted.estimator_charge_ah = f64::NAN;
-        let w = capacity_reading(&g, &gspan, &lipo(2.0), &uncounted).unwrap_err();
+        let w = capacity_reading(&g, gspan.end_s, &lipo(2.0), &uncounted).unwrap_err();
         assert!(w.contains("no current"), "{w}");
         // 1.67 Ah counted of a 5 Ah pack.
         let mut shallow = est(0.2, 0.05, 0.0);

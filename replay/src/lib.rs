@@ -138,20 +138,15 @@ pub fn online_from_file(
 
 /// Replays one flight; `Err` with the reason when it is not scored.
 pub fn replay_flight(flight: &Flight, config: &ReplayConfig<'_>) -> Result<FlightReplay, String> {
-    replay_flight_with_history(flight, config, None)
+    replay_flight_with_history(flight, config, None).map_err(|k| k.reason)
 }
 
-/// [`replay_flight`] with the packs' history: the online estimator flies the capacity the
-/// pack's last flight measured ([`history`]), and this flight's reading, or why it gives
-/// none, is recorded in `history` and in [`FlightReplay::capacity_reading`]. `None`: no
-/// history, as [`replay_flight`].
-pub fn replay_flight_with_history(
+/// A flight's pack (`battery_id`), and the reading its pack's history carries to it (the
+/// flight that measured it and its factor on the model's capacity).
+fn pack_of(
     flight: &Flight,
-    config: &ReplayConfig<'_>,
-    history: Option<&mut history::PackHistory>,
-) -> Result<FlightReplay, String> {
-    let span = cutoff::detect(flight)?;
-    let mut setup = FlightSetup::of(flight);
+    history: Option<&history::PackHistory>,
+) -> (Option<String>, Option<(String, f64)>) {
     // A history belongs to one pack: a flight that does not name its pack neither uses one
     // nor leaves one.
     let pack_id = flight
@@ -160,10 +155,119 @@ pub fn replay_flight_with_history(
         .clone()
         .filter(|id| !id.trim().is_empty());
     let carried = history
-        .as_deref()
         .zip(pack_id.as_deref())
         .and_then(|(h, id)| h.get(id))
         .map(|r| (r.flight.clone(), r.factor()));
+    (pack_id, carried)
+}
+
+/// The capacity `flight` measured, flown until `end_s` by the online estimator `online` (which
+/// ended in `final_state`), recorded in `h` under `pack_id`; why there is none otherwise.
+fn take_reading(
+    flight: &Flight,
+    end_s: f64,
+    online: Option<&dyn OnlinePredictor>,
+    final_state: &[(&'static str, f64)],
+    pack_id: Option<&str>,
+    h: &mut history::PackHistory,
+) -> Result<history::CapacityReading, String> {
+    let Some(o) = online else {
+        return Err("no online estimator ran".to_owned());
+    };
+    let Some(id) = pack_id else {
+        return Err(
+            "no battery_id in the metadata: a capacity is carried only to flights of the same pack"
+                .to_owned(),
+        );
+    };
+    let Some(pack) = o.pack() else {
+        return Err("the online estimator has no pack model".to_owned());
+    };
+    let state = |name: &str| {
+        final_state
+            .iter()
+            .find(|(k, _)| *k == name)
+            .map_or(f64::NAN, |(_, v)| *v)
+    };
+    let est = history::FlightEstimates {
+        start_soc: state("start_soc"),
+        settled_offset_v: state("settled_curve_offset_v"),
+        end_soc: state("soc"),
+        end_offset_v: state("curve_offset_v"),
+        usable_capacity_ah: state("usable_capacity_ah"),
+        estimator_charge_ah: state("estimator_charge_ah"),
+    };
+    let r = history::capacity_reading(flight, end_s, &pack, &est)?;
+    h.record(id, r.clone());
+    Ok(r)
+}
+
+/// The capacity reading of a flight that is not scored (it did not end at the cut-off): the
+/// online estimator flies it to its last flying sample, without a plan, only to read the
+/// pack at the end ([`history::capacity_reading`] needs no cut-off).
+fn reading_of_unscored(
+    flight: &Flight,
+    config: &ReplayConfig<'_>,
+    h: &mut history::PackHistory,
+) -> Result<history::CapacityReading, String> {
+    let (pack_id, carried) = pack_of(flight, Some(h));
+    let Some(builder) = config.online else {
+        return Err("no online estimator ran".to_owned());
+    };
+    let Some((takeoff_s, end_s)) = cutoff::flying_span(flight) else {
+        return Err("no sample in a flying phase".to_owned());
+    };
+    let mut setup = FlightSetup::of(flight);
+    setup.capacity_reading = carried.map(|c| (c.1, history::READING_SIGMA));
+    let mut online = builder.build(&setup, &[], takeoff_s)?;
+    let s = &flight.samples;
+    for k in 0..s.len() {
+        if s.time_s[k] > end_s {
+            break;
+        }
+        let _ = online.update(&Sample {
+            time_s: s.time_s[k],
+            voltage_v: s.voltage_v[k],
+            current_a: s.current_a.as_ref().map(|c| c[k]),
+            phase: s.phase.as_ref().map(|p| p[k]),
+        });
+    }
+    let final_state = online.final_state();
+    take_reading(
+        flight,
+        end_s,
+        Some(online.as_ref()),
+        &final_state,
+        pack_id.as_deref(),
+        h,
+    )
+}
+
+/// [`replay_flight`] with the packs' history: the online estimator flies the capacity the
+/// pack's last flight measured ([`history`]), and this flight's reading, or why it gives
+/// none, is recorded in `history` and in [`FlightReplay::capacity_reading`]. `None`: no
+/// history, as [`replay_flight`]. A flight that is not scored still measures its pack's
+/// capacity, which its [`SkippedFlight::capacity_reading`] gives.
+pub fn replay_flight_with_history(
+    flight: &Flight,
+    config: &ReplayConfig<'_>,
+    history: Option<&mut history::PackHistory>,
+) -> Result<FlightReplay, Box<SkippedFlight>> {
+    let skip = |reason: String, history: Option<&mut history::PackHistory>| {
+        let carried = history.as_deref().and_then(|h| pack_of(flight, Some(h)).1);
+        Box::new(SkippedFlight {
+            name: flight.name.clone(),
+            reason,
+            capacity_reading: history.map(|h| reading_of_unscored(flight, config, h)),
+            capacity_carried: carried,
+        })
+    };
+    let span = match cutoff::detect(flight) {
+        Ok(span) => span,
+        Err(why) => return Err(skip(why, history)),
+    };
+    let mut setup = FlightSetup::of(flight);
+    let (pack_id, carried) = pack_of(flight, history.as_deref());
     setup.capacity_reading = carried.as_ref().map(|c| (c.1, history::READING_SIGMA));
     let plan = methods::mission_plan(flight, &span);
     let mut unavailable: Vec<(&'static str, String)> = Vec::new();
@@ -209,7 +313,10 @@ pub fn replay_flight_with_history(
             .iter()
             .map(|(m, r)| format!("{m}: {r}"))
             .collect();
-        return Err(format!("no method can run on it ({})", why.join("; ")));
+        return Err(skip(
+            format!("no method can run on it ({})", why.join("; ")),
+            history,
+        ));
     }
     let s = &flight.samples;
     let n = s.len();
@@ -273,43 +380,22 @@ pub fn replay_flight_with_history(
     }
     let checkpoints: Vec<Checkpoint> = checkpoints.into_iter().flatten().collect();
     if checkpoints.len() != FRACTIONS.len() {
-        return Err("a checkpoint falls in a hole of the log".to_owned());
+        return Err(skip(
+            "a checkpoint falls in a hole of the log".to_owned(),
+            history,
+        ));
     }
     let final_state = online.as_ref().map(|o| o.final_state()).unwrap_or_default();
-    let capacity_reading = match (history, online.as_ref()) {
-        (None, _) => None,
-        (Some(_), None) => Some(Err("no online estimator ran".to_owned())),
-        (Some(_), Some(_)) if pack_id.is_none() => Some(Err(
-            "no battery_id in the metadata: a capacity is carried only to flights of the same pack"
-                .to_owned(),
-        )),
-        (Some(h), Some(o)) => {
-            let r = match o.pack() {
-                None => Err("the online estimator has no pack model".to_owned()),
-                Some(pack) => {
-                    let state = |name: &str| {
-                        final_state
-                            .iter()
-                            .find(|(k, _)| *k == name)
-                            .map_or(f64::NAN, |(_, v)| *v)
-                    };
-                    let est = history::FlightEstimates {
-                        start_soc: state("start_soc"),
-                        settled_offset_v: state("settled_curve_offset_v"),
-                        end_soc: state("soc"),
-                        end_offset_v: state("curve_offset_v"),
-                        usable_capacity_ah: state("usable_capacity_ah"),
-                        estimator_charge_ah: state("estimator_charge_ah"),
-                    };
-                    history::capacity_reading(flight, &span, &pack, &est)
-                }
-            };
-            if let (Ok(reading), Some(id)) = (&r, pack_id.as_deref()) {
-                h.record(id, reading.clone());
-            }
-            Some(r)
-        }
-    };
+    let capacity_reading = history.map(|h| {
+        take_reading(
+            flight,
+            span.end_s,
+            online.as_deref(),
+            &final_state,
+            pack_id.as_deref(),
+            h,
+        )
+    });
     Ok(FlightReplay {
         capacity_reading,
         capacity_carried: carried,
@@ -380,10 +466,7 @@ pub fn replay_flights_with_history(
     for (i, f) in flights.iter().enumerate() {
         match replay_flight_with_history(f, config, history.as_deref_mut()) {
             Ok(r) => scored.push(r),
-            Err(reason) => skipped.push(SkippedFlight {
-                name: f.name.clone(),
-                reason,
-            }),
+            Err(k) => skipped.push(*k),
         }
         progress(i + 1);
     }

@@ -115,6 +115,15 @@ pub struct SkippedFlight {
     pub name: String,
     /// Why.
     pub reason: String,
+    /// With the packs' history: the capacity the flight measured although it was not scored
+    /// (it did not end at the cut-off), or why it gives none (`replay --pack-history`;
+    /// [`crate::history`]). `None` without history, or when the flight could not be read.
+    #[serde(skip)]
+    pub capacity_reading: Option<Result<crate::history::CapacityReading, String>>,
+    /// The reading it flew with (the flight that measured it and its factor on the model's
+    /// capacity), as [`FlightReplay::capacity_carried`].
+    #[serde(skip)]
+    pub capacity_carried: Option<(String, f64)>,
 }
 
 /// Per checkpoint: median absolute error per method and how many flights each had.
@@ -240,6 +249,15 @@ struct FlightJson<'a> {
     pack_history: Option<HistoryJson<'a>>,
 }
 
+/// A skipped flight, with the capacity it measured (`--pack-history` only).
+#[derive(Serialize)]
+struct SkippedJson<'a> {
+    name: &'a str,
+    reason: &'a str,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pack_history: Option<HistoryJson<'a>>,
+}
+
 /// A flight's part in the packs' history (`--pack-history` only).
 #[derive(Serialize)]
 struct HistoryJson<'a> {
@@ -257,7 +275,7 @@ struct HistoryJson<'a> {
 struct ReplayJson<'a> {
     methods: [&'static str; 4],
     flights: Vec<FlightJson<'a>>,
-    skipped: &'a [SkippedFlight],
+    skipped: Vec<SkippedJson<'a>>,
     summary: &'a Summary,
 }
 
@@ -341,7 +359,24 @@ impl Replay {
         serde_json::to_value(ReplayJson {
             methods: METHODS,
             flights,
-            skipped: &self.skipped,
+            skipped: self
+                .skipped
+                .iter()
+                .map(|k| SkippedJson {
+                    name: &k.name,
+                    reason: &k.reason,
+                    pack_history: k.capacity_reading.as_ref().map(|r| HistoryJson {
+                        carried_from: k.capacity_carried.as_ref().map(|c| c.0.as_str()),
+                        carried_factor: k.capacity_carried.as_ref().map(|c| c.1),
+                        reading: r.as_ref().ok(),
+                        reading_factor: r
+                            .as_ref()
+                            .ok()
+                            .map(crate::history::CapacityReading::factor),
+                        no_reading: r.as_ref().err().map(String::as_str),
+                    }),
+                })
+                .collect(),
             summary: &self.summary,
         })
         .unwrap_or(serde_json::Value::Null)
@@ -438,40 +473,22 @@ impl Replay {
                 let _ = writeln!(s, "  {m}: {r}");
             }
             if let Some((from, factor)) = &f.capacity_carried {
-                let _ = writeln!(
-                    s,
-                    "  pack history: flew with the capacity {from} measured ({:.0} % of the model's)",
-                    100.0 * factor
-                );
+                s += &carried_line(from, *factor);
             }
-            match &f.capacity_reading {
-                Some(Ok(r)) => {
-                    let _ = writeln!(
-                        s,
-                        "  pack history: measured {:.3} Ah ({:.0} % of the model's {:.3} Ah; {:.3} Ah {} from {:.0} % of the charge to {:.0} %, the end read on the curve at the pack's voltage)",
-                        r.capacity_ah,
-                        100.0 * r.factor(),
-                        r.model_capacity_ah,
-                        r.counted_ah,
-                        if r.charge_from_model {
-                            "drawn by the estimator's power model (no current logged)"
-                        } else {
-                            "counted"
-                        },
-                        100.0 * r.start_soc,
-                        100.0 * r.end_soc
-                    );
-                }
-                Some(Err(why)) => {
-                    let _ = writeln!(s, "  pack history: no capacity reading: {why}");
-                }
-                None => {}
+            if let Some(r) = &f.capacity_reading {
+                s += &reading_line(r);
             }
         }
         if !self.skipped.is_empty() {
             let _ = writeln!(s, "\nskipped ({}):", self.skipped.len());
             for k in &self.skipped {
                 let _ = writeln!(s, "  {}: {}", k.name, k.reason);
+                if let Some((from, factor)) = &k.capacity_carried {
+                    s += &carried_line(from, *factor);
+                }
+                if let Some(r) = &k.capacity_reading {
+                    s += &reading_line(r);
+                }
             }
         }
         let _ = writeln!(
@@ -547,6 +564,35 @@ fn without_numbers(reason: &str) -> String {
     out
 }
 
+/// The text line of the reading a flight flew with (`--pack-history`).
+fn carried_line(from: &str, factor: f64) -> String {
+    format!(
+        "  pack history: flew with the capacity {from} measured ({:.0} % of the model's)\n",
+        100.0 * factor
+    )
+}
+
+/// The text line of a flight's capacity reading, or of why it gives none (`--pack-history`).
+fn reading_line(r: &Result<crate::history::CapacityReading, String>) -> String {
+    match r {
+        Ok(r) => format!(
+            "  pack history: measured {:.3} Ah ({:.0} % of the model's {:.3} Ah; {:.3} Ah {} from {:.0} % of the charge to {:.0} %, the end read on the curve at the pack's voltage)\n",
+            r.capacity_ah,
+            100.0 * r.factor(),
+            r.model_capacity_ah,
+            r.counted_ah,
+            if r.charge_from_model {
+                "drawn by the estimator's power model (no current logged)"
+            } else {
+                "counted"
+            },
+            100.0 * r.start_soc,
+            100.0 * r.end_soc
+        ),
+        Err(why) => format!("  pack history: no capacity reading: {why}\n"),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -558,6 +604,8 @@ mod tests {
             .map(|(i, r)| SkippedFlight {
                 name: format!("f{i}"),
                 reason: (*r).to_owned(),
+                capacity_reading: None,
+                capacity_carried: None,
             })
             .collect();
         Replay::new(Vec::new(), skipped)

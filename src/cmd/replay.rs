@@ -66,6 +66,8 @@ pub fn run(args: Args) -> Result<()> {
                 |n| n.to_string_lossy().into_owned(),
             ),
             reason: error_chain(&s.reason),
+            capacity_reading: None,
+            capacity_carried: None,
         })
         .collect();
     if args.thrust_limit_end && file.thrust_limit.is_none() {
