@@ -15,7 +15,7 @@
 extern "C" {
 #endif
 
-#define HB_ONLINE_STATE_WORDS 176
+#define HB_ONLINE_STATE_WORDS 184
 #define HB_ONLINE_MAX_PLAN_SEGMENTS 16
 
 #define HB_OK (0)

@@ -63,7 +63,7 @@ use estimator::{MissionOptions, Params, Segment};
 
 /// 64-bit words of [`HbOnlineState`]: room for the estimator ([`OnlineEstimator::STATE_SIZE_BYTES`]
 /// bytes on this target) and a tag.
-pub const STATE_WORDS: usize = 176;
+pub const STATE_WORDS: usize = 184;
 /// Tag of an initialised state.
 const TAG: u64 = 0x4842_4f4e_4c49_4e45; // "HBONLINE"
 

@@ -1131,6 +1131,7 @@ pub fn config_from_spec(spec: &str) -> Result<OnlineConfig, String> {
             "extra_power_thrust_share" => &mut c.extra_power_thrust_share,
             "extra_power_thrust_share_sigma" => &mut c.extra_power_thrust_share_sigma,
             "thrust_headroom_fraction" => &mut c.thrust_headroom_fraction,
+            "input_average_s" => &mut c.input_average_s,
             other => return Err(format!("unknown key {other:?}")),
         };
         *slot = v;

@@ -64,6 +64,13 @@ impl FileOnline {
         self
     }
 
+    /// The same with samples averaged over windows of `seconds` before the filter takes them
+    /// ([`OnlineConfig::input_average_s`]; 0: none).
+    pub fn with_input_average(mut self, seconds: f64) -> Self {
+        self.config.input_average_s = seconds;
+        self
+    }
+
     /// From parameters, a pack model and the filter's configuration.
     pub fn new(params: Params, battery: BatteryModel, config: OnlineConfig) -> Self {
         Self {
