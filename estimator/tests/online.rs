@@ -94,6 +94,28 @@ fn fly(
     with_current: bool,
     seed: u64,
 ) -> Flight {
+    fly_swinging(
+        pack,
+        idle_w,
+        hover_w,
+        rate_hz,
+        with_current.then_some(0.05),
+        seed,
+        |_| 1.0,
+    )
+}
+
+/// [`fly`] with the hover power times `swing(t)` and the current logged with
+/// `current_noise_a` of noise per sample (`None`: not logged).
+fn fly_swinging(
+    pack: TruePack,
+    idle_w: f64,
+    hover_w: f64,
+    rate_hz: f64,
+    current_noise_a: Option<f64>,
+    seed: u64,
+    swing: impl Fn(f64) -> f64,
+) -> Flight {
     let dt = 0.01;
     let every = (1.0 / rate_hz / dt).round() as usize;
     let mut noise = Noise(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1);
@@ -103,7 +125,7 @@ fn fly(
     let r1 = pack.cells * pack.r1_cell_ohm;
     for k in 0.. {
         let flying = t >= 5.0;
-        let p = if flying { hover_w } else { idle_w };
+        let p = if flying { hover_w * swing(t) } else { idle_w };
         let e = pack.cells * (truth_ocv_cell_v(soc) + pack.ocv_offset_cell_v) - v1;
         let disc = e * e - 4.0 * r0 * p;
         if disc < 0.0 {
@@ -118,7 +140,7 @@ fn fly(
             samples.push(Sample {
                 time_s: t,
                 voltage_v: v + 0.01 * noise.gauss(),
-                current_a: with_current.then(|| i * 1.0 + 0.05 * noise.gauss()),
+                current_a: current_noise_a.map(|sd| i + sd * noise.gauss()),
                 phase: Some(if flying {
                     FlightPhase::Hover
                 } else {
@@ -1007,62 +1029,27 @@ fn averaging_the_samples_undoes_a_noisy_current_sensors_pull_on_the_resistance()
     let pack = vary(|p| p.r0_cell_ohm *= 1.5);
     let truth_ohm = pack.cells * pack.r0_cell_ohm;
     let resistance_at_three_quarters = |input_average_s: f64| {
-        let config = OnlineConfig {
+        let mut est = estimator_with(&OnlineConfig {
             input_average_s,
             ..OnlineConfig::trusted_curve()
-        };
-        let mut est = estimator_with(&config);
-        let hover_w = est.model_hover_power_w();
-        let idle_w = est.idle_power_w();
-        let (dt, every) = (0.01, 10);
-        let mut noise = Noise(0x5DEE_CE66_D1CE_4E5B);
-        let (mut soc, mut v1, mut t): (f64, f64, f64) = (1.0, 0.0, 0.0);
-        let r0 = pack.cells * pack.r0_cell_ohm;
-        let r1 = pack.cells * pack.r1_cell_ohm;
-        let mut samples = Vec::new();
-        for k in 0.. {
-            let flying = t >= 5.0;
-            let swing = if (t / 4.0).floor() as i64 % 2 == 0 {
-                1.03
-            } else {
-                0.97
-            };
-            let p = if flying { hover_w * swing } else { idle_w };
-            let e = pack.cells * (truth_ocv_cell_v(soc) + pack.ocv_offset_cell_v) - v1;
-            let disc = e * e - 4.0 * r0 * p;
-            if disc < 0.0 {
-                break;
-            }
-            let i = (e - disc.sqrt()) / (2.0 * r0);
-            let v = e - i * r0;
-            if flying && v <= pack.cells * pack.cutoff_cell_v {
-                break;
-            }
-            if k % every == 0 {
-                samples.push(Sample {
-                    time_s: t,
-                    voltage_v: v + 0.01 * noise.gauss(),
-                    current_a: Some(i + 0.3 * noise.gauss()),
-                    phase: Some(if flying {
-                        FlightPhase::Hover
-                    } else {
-                        FlightPhase::Ground
-                    }),
-                });
-            }
-            soc -= i * dt / (3600.0 * pack.capacity_ah);
-            v1 += (i * r1 - v1) * dt / pack.tau_s;
-            t += dt;
-        }
-        let end_s = t;
-        let mut r = f64::NAN;
-        for s in &samples {
-            let e = est.update(s);
-            if s.time_s <= 5.0 + 0.75 * (end_s - 5.0) {
-                r = e.series_resistance_ohm;
-            }
-        }
-        r / truth_ohm
+        });
+        let f = fly_swinging(
+            pack,
+            est.idle_power_w(),
+            est.model_hover_power_w(),
+            10.0,
+            Some(0.3),
+            7,
+            |t| {
+                if (t / 4.0).floor() as i64 % 2 == 0 {
+                    1.03
+                } else {
+                    0.97
+                }
+            },
+        );
+        let out = run(&f, &mut est);
+        out[at_fraction(&f, 0.75).0].series_resistance_ohm / truth_ohm
     };
     let each = resistance_at_three_quarters(0.0);
     let averaged = resistance_at_three_quarters(1.0);
