@@ -397,3 +397,43 @@ fn replay_eval_voltage_only_drops_the_current_and_keeps_the_flights() {
     assert!(half(&without, "online").is_some());
     assert_eq!(half(&with, "static_model"), half(&without, "static_model"));
 }
+
+/// `replay-eval --input-average 1`: the online estimator averages the samples over 1 s windows.
+/// A 1 Hz lab log is taken sample by sample all the same (its JSON is the same), a 10 Hz
+/// flight controller's is not (its online errors move); the baselines never change.
+#[test]
+fn replay_eval_input_average_moves_only_logs_faster_than_the_window() {
+    let run_eval = |family: &str, extra: &[&str]| -> Value {
+        let mut a = vec![
+            "replay-eval",
+            "--scenarios",
+            "1",
+            "--seed",
+            "25",
+            "--families",
+            family,
+            "--json",
+        ];
+        a.extend_from_slice(extra);
+        serde_json::from_str(&ok(&a)).unwrap()
+    };
+    let errors = |v: &Value, method: &str| -> Vec<f64> {
+        let mut out = Vec::new();
+        for sc in v["scenarios"].as_array().unwrap() {
+            for f in sc["replay"]["flights"].as_array().unwrap() {
+                for c in f["checkpoints"].as_array().unwrap() {
+                    out.push(c["error_pct"][method].as_f64().unwrap_or(f64::NAN));
+                }
+            }
+        }
+        out
+    };
+    let lab = "lipo/lab-1hz/paper";
+    let (a, b) = (run_eval(lab, &[]), run_eval(lab, &["--input-average", "1"]));
+    assert_eq!(errors(&a, "online"), errors(&b, "online"));
+    let fc = "lipo/fc-10hz/paper";
+    let (a, b) = (run_eval(fc, &[]), run_eval(fc, &["--input-average", "1"]));
+    assert!(!errors(&a, "online").is_empty());
+    assert_ne!(errors(&a, "online"), errors(&b, "online"));
+    assert_eq!(errors(&a, "static_model"), errors(&b, "static_model"));
+}

@@ -38,17 +38,35 @@ pub struct Args {
     /// estimator and the baselines do with voltage-only logs of the same flights)
     #[arg(long)]
     voltage_only: bool,
+    /// The online estimator averages the samples over windows of this many seconds, as
+    /// `replay --input-average` does (0: off, the default)
+    #[arg(long, value_name = "S", default_value_t = 0.0)]
+    input_average: f64,
+    /// The online estimator ends its predictions also where the rotors run out of thrust, as
+    /// `replay --thrust-limit-end` does (the study measures each world's limit sweep)
+    #[arg(long)]
+    thrust_limit_end: bool,
 }
 
 /// Runs the subcommand.
 pub fn run(args: Args) -> Result<()> {
+    if !(args.input_average.is_finite() && args.input_average >= 0.0) {
+        anyhow::bail!(
+            "--input-average takes a window in seconds, 0 or more; got {}",
+            args.input_average
+        );
+    }
     let end = crate::output::seed_end(args.seed, args.scenarios)?;
     let families = select_families(&args.families)?;
     let opts = StudyOptions {
         seeds: args.seed..end,
         families,
         threads: args.threads,
-        config: estimator::online::OnlineConfig::default(),
+        config: estimator::online::OnlineConfig {
+            input_average_s: args.input_average,
+            thrust_limit_end: args.thrust_limit_end,
+            ..estimator::online::OnlineConfig::default()
+        },
         pack_history: args.pack_history,
         voltage_only: args.voltage_only,
     };
