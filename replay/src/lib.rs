@@ -215,9 +215,10 @@ fn take_reading(
 fn reading_of_unscored(
     flight: &Flight,
     config: &ReplayConfig<'_>,
+    pack_id: Option<&str>,
+    carried: Option<f64>,
     h: &mut history::PackHistory,
 ) -> Result<history::CapacityReading, String> {
-    let (pack_id, carried) = pack_of(flight, Some(h));
     let Some(builder) = config.online else {
         return Err("no online estimator ran".to_owned());
     };
@@ -225,19 +226,14 @@ fn reading_of_unscored(
         return Err("no sample in a flying phase".to_owned());
     };
     let mut setup = FlightSetup::of(flight);
-    setup.capacity_reading = carried.map(|c| (c.1, history::READING_SIGMA));
+    setup.capacity_reading = carried.map(|factor| (factor, history::READING_SIGMA));
     let mut online = builder.build(&setup, &[], takeoff_s)?;
     let s = &flight.samples;
     for k in 0..s.len() {
         if s.time_s[k] > end_s {
             break;
         }
-        let _ = online.update(&Sample {
-            time_s: s.time_s[k],
-            voltage_v: s.voltage_v[k],
-            current_a: s.current_a.as_ref().map(|c| c[k]),
-            phase: s.phase.as_ref().map(|p| p[k]),
-        });
+        let _ = online.update(&sample_at(flight, k));
     }
     let final_state = online.final_state();
     take_reading(
@@ -245,9 +241,20 @@ fn reading_of_unscored(
         end_s,
         Some(online.as_ref()),
         &final_state,
-        pack_id.as_deref(),
+        pack_id,
         h,
     )
+}
+
+/// Sample `k` of `flight`, as the predictors take it.
+fn sample_at(flight: &Flight, k: usize) -> Sample {
+    let s = &flight.samples;
+    Sample {
+        time_s: s.time_s[k],
+        voltage_v: s.voltage_v[k],
+        current_a: s.current_a.as_ref().map(|c| c[k]),
+        phase: s.phase.as_ref().map(|p| p[k]),
+    }
 }
 
 /// [`replay_flight`] with the packs' history: the online estimator flies the capacity the
@@ -260,13 +267,16 @@ pub fn replay_flight_with_history(
     config: &ReplayConfig<'_>,
     history: Option<&mut history::PackHistory>,
 ) -> Result<FlightReplay, Box<SkippedFlight>> {
+    let (pack_id, carried) = pack_of(flight, history.as_deref());
     let skip = |reason: String, history: Option<&mut history::PackHistory>| {
-        let carried = history.as_deref().and_then(|h| pack_of(flight, Some(h)).1);
         Box::new(SkippedFlight {
             name: flight.name.clone(),
             reason,
-            capacity_reading: history.map(|h| reading_of_unscored(flight, config, h)),
-            capacity_carried: carried,
+            capacity_reading: history.map(|h| {
+                let factor = carried.as_ref().map(|c| c.1);
+                reading_of_unscored(flight, config, pack_id.as_deref(), factor, h)
+            }),
+            capacity_carried: carried.clone(),
         })
     };
     let span = match cutoff::detect(flight) {
@@ -274,7 +284,6 @@ pub fn replay_flight_with_history(
         Err(why) => return Err(skip(why, history)),
     };
     let mut setup = FlightSetup::of(flight);
-    let (pack_id, carried) = pack_of(flight, history.as_deref());
     setup.capacity_reading = carried.as_ref().map(|c| (c.1, history::READING_SIGMA));
     let plan = methods::mission_plan(flight, &span);
     let mut unavailable: Vec<(&'static str, String)> = Vec::new();
@@ -345,12 +354,7 @@ pub fn replay_flight_with_history(
         if t > span.end_s {
             break;
         }
-        let sample = Sample {
-            time_s: t,
-            voltage_v: s.voltage_v[k],
-            current_a: s.current_a.as_ref().map(|c| c[k]),
-            phase: s.phase.as_ref().map(|p| p[k]),
-        };
+        let sample = sample_at(flight, k);
         let mut preds: [Option<Prediction>; 4] = [None; 4];
         if let Some(o) = online.as_mut() {
             preds[0] = o.update(&sample).filter(|p| p.remaining_s.is_finite());
