@@ -1078,3 +1078,33 @@ fn a_log_slower_than_the_averaging_window_is_taken_sample_by_sample() {
     );
     assert_eq!(plain, averaged);
 }
+
+#[test]
+fn averaged_samples_come_with_their_band() {
+    let c = OnlineConfig::default().with_input_average(1.0);
+    assert_eq!(c.input_average_s, 1.0);
+    assert_eq!(c.end_soc_sigma, estimator::online::AVERAGED_END_SOC_SIGMA);
+    assert!(c.end_soc_sigma < OnlineConfig::default().end_soc_sigma);
+    // Off, the band stays the configuration's.
+    let off = OnlineConfig {
+        end_soc_sigma: 0.1,
+        ..OnlineConfig::default()
+    }
+    .with_input_average(0.0);
+    assert_eq!((off.input_average_s, off.end_soc_sigma), (0.0, 0.1));
+    // A 10 Hz flight averaged over 1 s: the band at half the flight is narrower than the same
+    // flight's with the windows and the default band.
+    let f = fly_swinging(NOMINAL, 5.0, 100.0, 10.0, Some(0.3), 31, |_| 1.0);
+    let band_at_half = |config: &OnlineConfig| {
+        let mut est = estimator_with(config);
+        let out = run(&f, &mut est);
+        let (k, _) = at_fraction(&f, 0.5);
+        out[k].remaining_phase_sigma_s
+    };
+    let wide = band_at_half(&OnlineConfig {
+        input_average_s: 1.0,
+        ..OnlineConfig::default()
+    });
+    let sized = band_at_half(&c);
+    assert!(sized < wide, "{sized} vs {wide}");
+}

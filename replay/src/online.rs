@@ -64,10 +64,10 @@ impl FileOnline {
         self
     }
 
-    /// The same with samples averaged over windows of `seconds` before the filter takes them
-    /// ([`OnlineConfig::input_average_s`]; 0: none).
+    /// The same with samples averaged over windows of `seconds` before the filter takes them,
+    /// and the band that goes with it ([`OnlineConfig::with_input_average`]; 0: none).
     pub fn with_input_average(mut self, seconds: f64) -> Self {
-        self.config.input_average_s = seconds;
+        self.config = self.config.with_input_average(seconds);
         self
     }
 

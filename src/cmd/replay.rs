@@ -44,8 +44,10 @@ pub struct Args {
     /// Average the samples over windows of this many seconds before the online estimator takes
     /// them: a noisy current sensor (a flight controller's Hall module at 10 Hz or faster)
     /// otherwise makes it learn too small a series resistance. Logs slower than the window are
-    /// taken sample by sample. Off (0) by default; 1 s lowered the median error at half the
-    /// flight on simulated 10 Hz flight-controller logs (README, "How long can it still fly?").
+    /// taken sample by sample. The one-sigma band is then sized for averaged samples
+    /// (`end_soc_sigma` 0.06 instead of 0.08). Off (0) by default; 1 s lowered the median
+    /// error at half the flight on all nine simulated held-out sets, with some flights worse
+    /// (README, "How long can it still fly?").
     #[arg(long, value_name = "S", default_value_t = 0.0)]
     input_average: f64,
     /// Carry each pack's usable capacity from one flight to its next (by `battery_id`): a

@@ -38,8 +38,8 @@ pub struct Args {
     /// estimator and the baselines do with voltage-only logs of the same flights)
     #[arg(long)]
     voltage_only: bool,
-    /// The online estimator averages the samples over windows of this many seconds, as
-    /// `replay --input-average` does (0: off, the default)
+    /// The online estimator averages the samples over windows of this many seconds, with the
+    /// band sized for averaged samples, as `replay --input-average` does (0: off, the default)
     #[arg(long, value_name = "S", default_value_t = 0.0)]
     input_average: f64,
     /// The online estimator ends its predictions also where the rotors run out of thrust, as
@@ -63,10 +63,10 @@ pub fn run(args: Args) -> Result<()> {
         families,
         threads: args.threads,
         config: estimator::online::OnlineConfig {
-            input_average_s: args.input_average,
             thrust_limit_end: args.thrust_limit_end,
             ..estimator::online::OnlineConfig::default()
-        },
+        }
+        .with_input_average(args.input_average),
         pack_history: args.pack_history,
         voltage_only: args.voltage_only,
     };
