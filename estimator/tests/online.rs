@@ -848,14 +848,15 @@ fn the_thrust_limit_ends_the_flight_where_the_rotors_run_out() {
     };
     let errors =
         |params: &estimator::Params, config: &OnlineConfig| errors_with(params, config, true);
-    // Without a logged current the end comes at the model's hover thrust: the same here.
+    // Without a logged current the end is not used: the filter's extra power then takes up
+    // the pack's sag as well as the robot's draw, so the loaded voltage it predicts where the
+    // rotors give out is not the pack's (on `replay-eval`'s tuning families replayed without
+    // their current the end made the median error worse). Here, where the model's power is
+    // exact, that costs the voltage-only flight the end: it flies on as without the limit.
     let voltage_only = errors_with(&with_limit, &config, false);
-    for e in voltage_only {
-        assert!(
-            e.abs() < 0.05,
-            "voltage only, with the limit: {voltage_only:?}"
-        );
-    }
+    let voltage_only_off = errors_with(&with_limit, &off, false);
+    assert_eq!(voltage_only, voltage_only_off, "voltage only: no end");
+    assert!(voltage_only[1] > 0.04, "{voltage_only:?}");
     let ended = errors(&with_limit, &config);
     let without = errors(&params(), &config);
     let switched_off = errors(&with_limit, &off);
@@ -1080,18 +1081,25 @@ fn a_log_slower_than_the_averaging_window_is_taken_sample_by_sample() {
 }
 
 #[test]
-fn averaged_samples_come_with_their_band() {
-    let c = OnlineConfig::default().with_input_average(1.0);
-    assert_eq!(c.input_average_s, 1.0);
-    assert_eq!(c.end_soc_sigma, estimator::online::AVERAGED_END_SOC_SIGMA);
+fn the_opt_ins_come_with_their_band() {
+    use estimator::online::opt_in_end_soc_sigma;
+    let c = OnlineConfig::default().with_opt_ins(1.0, false);
+    assert_eq!((c.input_average_s, c.thrust_limit_end), (1.0, false));
+    assert_eq!(Some(c.end_soc_sigma), opt_in_end_soc_sigma(true, false));
     assert!(c.end_soc_sigma < OnlineConfig::default().end_soc_sigma);
-    // Off, the band stays the configuration's.
+    let both = OnlineConfig::default().with_opt_ins(1.0, true);
+    assert!(both.thrust_limit_end);
+    assert!(both.end_soc_sigma < c.end_soc_sigma);
+    // Both off, the band stays the configuration's; a window of 0 or less is none.
     let off = OnlineConfig {
         end_soc_sigma: 0.1,
         ..OnlineConfig::default()
     }
-    .with_input_average(0.0);
-    assert_eq!((off.input_average_s, off.end_soc_sigma), (0.0, 0.1));
+    .with_opt_ins(-1.0, false);
+    assert_eq!(
+        (off.input_average_s, off.thrust_limit_end, off.end_soc_sigma),
+        (0.0, false, 0.1)
+    );
     // A 10 Hz flight averaged over 1 s: the band at half the flight is narrower than the same
     // flight's with the windows and the default band.
     let f = fly_swinging(NOMINAL, 5.0, 100.0, 10.0, Some(0.3), 31, |_| 1.0);

@@ -127,19 +127,15 @@ impl ReplayConfig<'_> {
 }
 
 /// The online estimator of a parameter file (its `[battery]` section), with the thrust-limit
-/// end on or off ([`online::FileOnline::with_thrust_limit_end`]) and samples averaged over
-/// `input_average_s` (0: none; [`estimator::online::OnlineConfig::input_average_s`]), or why it
-/// cannot run.
+/// end on or off and samples averaged over `input_average_s` (0: none), and the band that goes
+/// with them ([`online::FileOnline::with_opt_ins`]), or why it cannot run.
 pub fn online_from_file(
     file: &estimator::file::ParamsFile,
     thrust_limit_end: bool,
     input_average_s: f64,
 ) -> Result<Box<dyn OnlineBuilder>, String> {
     online::FileOnline::from_file(file).map(|o| {
-        Box::new(
-            o.with_thrust_limit_end(thrust_limit_end)
-                .with_input_average(input_average_s),
-        ) as Box<dyn OnlineBuilder>
+        Box::new(o.with_opt_ins(input_average_s, thrust_limit_end)) as Box<dyn OnlineBuilder>
     })
 }
 

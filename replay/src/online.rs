@@ -58,16 +58,12 @@ impl FileOnline {
     }
 
     /// The same with the thrust-limit end switched on or off
-    /// ([`OnlineConfig::thrust_limit_end`]: it acts only with the parameters' `[thrust_limit]`).
-    pub fn with_thrust_limit_end(mut self, on: bool) -> Self {
-        self.config.thrust_limit_end = on;
-        self
-    }
-
-    /// The same with samples averaged over windows of `seconds` before the filter takes them,
-    /// and the band that goes with it ([`OnlineConfig::with_input_average`]; 0: none).
-    pub fn with_input_average(mut self, seconds: f64) -> Self {
-        self.config = self.config.with_input_average(seconds);
+    /// ([`OnlineConfig::thrust_limit_end`]: it acts only with the parameters' `[thrust_limit]`
+    /// and a logged current) and samples averaged over windows of `input_average_s` before the
+    /// filter takes them (0: none), with the band that goes with them
+    /// ([`OnlineConfig::with_opt_ins`]).
+    pub fn with_opt_ins(mut self, input_average_s: f64, thrust_limit_end: bool) -> Self {
+        self.config = self.config.with_opt_ins(input_average_s, thrust_limit_end);
         self
     }
 

@@ -36,16 +36,18 @@ pub struct Args {
     #[arg(short = 'o', long, value_name = "DIR")]
     out: Option<PathBuf>,
     /// End the online estimator's predictions also where the rotors run out of thrust (the
-    /// parameters' [thrust_limit], with 3 % of headroom for the controller). Off by default:
-    /// on simulated held-out flights it lowers the median error at half the flight but makes
-    /// some flights worse (README, "How long can it still fly?").
+    /// parameters' [thrust_limit], with 3 % of headroom for the controller), on flights that
+    /// log their current; the one-sigma band is then sized for it (`end_soc_sigma` 0.06, 0.04
+    /// with `--input-average`). Off by default: on simulated held-out flights it lowers the
+    /// median error at half the flight but makes some flights worse (README, "How long can it
+    /// still fly?").
     #[arg(long)]
     thrust_limit_end: bool,
     /// Average the samples over windows of this many seconds before the online estimator takes
     /// them: a noisy current sensor (a flight controller's Hall module at 10 Hz or faster)
     /// otherwise makes it learn too small a series resistance. Logs slower than the window are
     /// taken sample by sample. The one-sigma band is then sized for averaged samples
-    /// (`end_soc_sigma` 0.06 instead of 0.08). Off (0) by default; 1 s lowered the median
+    /// (`end_soc_sigma` 0.06 instead of 0.08; 0.04 with `--thrust-limit-end`). Off (0) by default; 1 s lowered the median
     /// error at half the flight on all nine simulated held-out sets, with some flights worse
     /// (README, "How long can it still fly?").
     #[arg(long, value_name = "S", default_value_t = 0.0)]

@@ -39,7 +39,7 @@ pub struct Args {
     #[arg(long)]
     voltage_only: bool,
     /// The online estimator averages the samples over windows of this many seconds, with the
-    /// band sized for averaged samples, as `replay --input-average` does (0: off, the default)
+    /// band sized for it, as `replay --input-average` does (0: off, the default)
     #[arg(long, value_name = "S", default_value_t = 0.0)]
     input_average: f64,
     /// The online estimator ends its predictions also where the rotors run out of thrust, as
@@ -62,11 +62,8 @@ pub fn run(args: Args) -> Result<()> {
         seeds: args.seed..end,
         families,
         threads: args.threads,
-        config: estimator::online::OnlineConfig {
-            thrust_limit_end: args.thrust_limit_end,
-            ..estimator::online::OnlineConfig::default()
-        }
-        .with_input_average(args.input_average),
+        config: estimator::online::OnlineConfig::default()
+            .with_opt_ins(args.input_average, args.thrust_limit_end),
         pack_history: args.pack_history,
         voltage_only: args.voltage_only,
     };
