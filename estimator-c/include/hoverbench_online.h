@@ -27,6 +27,7 @@ extern "C" {
 #define HB_ERR_NOT_INITIALISED (-6)
 #define HB_ERR_PLAN (-7)
 #define HB_ERR_OBSERVE (-8)
+#define HB_ERR_OPTION (-9)
 
 /* Bits of hb_online_estimate.flags (and of hb_online_update's result). */
 #define HB_FLAG_NOT_INITIALISED 1u
@@ -103,6 +104,14 @@ typedef struct hb_plan_segment {
 
 /* Initialises state from the parameter blob (hoverbench fit --blob, with battery and vehicle). */
 int32_t hb_online_init(const uint8_t *blob, size_t len, hb_online_state *state);
+
+/* The same with the opt-ins: samples averaged over windows of input_average_s seconds (0: none;
+ * 1 s for a noisy current sensor at 10 Hz or faster) and, when thrust_limit_end is non-zero,
+ * predictions that end also where the rotors run out of thrust (needs the blob's thrust-limit
+ * block and a logged current); the one-sigma band is sized for them. HB_ERR_OPTION for a window
+ * that is not a finite number >= 0. */
+int32_t hb_online_init_with(const uint8_t *blob, size_t len, double input_average_s,
+                            int32_t thrust_limit_end, hb_online_state *state);
 
 /* One sample: time (s), pack voltage (V), pack current (A, NAN when not measured), HB_PHASE_*.
  * Returns the flag bits (>= 0) or a negative HB_ERR_* code. */

@@ -4,7 +4,7 @@ use estimator::online::{Estimate, MAX_PLAN_SEGMENTS};
 
 use crate::{
     HB_ERR_BLOB, HB_ERR_MODEL, HB_ERR_NO_BATTERY, HB_ERR_NO_VEHICLE, HB_ERR_NOT_INITIALISED,
-    HB_ERR_NULL, HB_ERR_OBSERVE, HB_ERR_PLAN, HB_OK, HB_STATE_CAPACITY_SCALE,
+    HB_ERR_NULL, HB_ERR_OBSERVE, HB_ERR_OPTION, HB_ERR_PLAN, HB_OK, HB_STATE_CAPACITY_SCALE,
     HB_STATE_CURVE_OFFSET_V, HB_STATE_EXTRA_POWER_W, HB_STATE_RESISTANCE_SCALE, HB_STATE_SOC,
     STATE_WORDS,
 };
@@ -34,6 +34,7 @@ pub fn c_header() -> String {
         ("HB_ERR_NOT_INITIALISED", HB_ERR_NOT_INITIALISED),
         ("HB_ERR_PLAN", HB_ERR_PLAN),
         ("HB_ERR_OBSERVE", HB_ERR_OBSERVE),
+        ("HB_ERR_OPTION", HB_ERR_OPTION),
     ]
     .iter()
     .map(|(n, v)| format!("#define {n} ({v})\n"))
@@ -132,6 +133,14 @@ typedef struct hb_plan_segment {{
 
 /* Initialises state from the parameter blob (hoverbench fit --blob, with battery and vehicle). */
 int32_t hb_online_init(const uint8_t *blob, size_t len, hb_online_state *state);
+
+/* The same with the opt-ins: samples averaged over windows of input_average_s seconds (0: none;
+ * 1 s for a noisy current sensor at 10 Hz or faster) and, when thrust_limit_end is non-zero,
+ * predictions that end also where the rotors run out of thrust (needs the blob's thrust-limit
+ * block and a logged current); the one-sigma band is sized for them. HB_ERR_OPTION for a window
+ * that is not a finite number >= 0. */
+int32_t hb_online_init_with(const uint8_t *blob, size_t len, double input_average_s,
+                            int32_t thrust_limit_end, hb_online_state *state);
 
 /* One sample: time (s), pack voltage (V), pack current (A, NAN when not measured), HB_PHASE_*.
  * Returns the flag bits (>= 0) or a negative HB_ERR_* code. */

@@ -4,7 +4,8 @@
 //! cannot drift).
 //!
 //! Main items: [`hb_online_init`] (from the parameter blob `hoverbench fit --blob` writes, with
-//! its battery and vehicle blocks), [`hb_online_update`] (one sample), [`hb_online_read`] (the
+//! its battery and vehicle blocks; [`hb_online_init_with`] with the averaging window and the
+//! thrust-limit end), [`hb_online_update`] (one sample), [`hb_online_read`] (the
 //! estimate as [`HbOnlineEstimate`]), [`hb_online_set_plan`], [`hb_online_observe`] (an
 //! outside reading of one state, e.g. a pack's measured capacity). The caller owns the state: an
 //! [`HbOnlineState`] of [`STATE_WORDS`] 64-bit words, static or on the stack; nothing is
@@ -89,6 +90,9 @@ pub const HB_ERR_PLAN: i32 = -7;
 /// An outside reading cannot be fused ([`hb_online_observe`]): no sample yet, an unknown
 /// state, a value that is not finite or a sigma that is not positive.
 pub const HB_ERR_OBSERVE: i32 = -8;
+/// An option of [`hb_online_init_with`] is out of range (an averaging window that is not a
+/// finite number of seconds, 0 or more).
+pub const HB_ERR_OPTION: i32 = -9;
 
 /// [`hb_online_observe`]'s states: the state of charge (0..1).
 pub const HB_STATE_SOC: u32 = 0;
@@ -280,6 +284,48 @@ pub unsafe extern "C" fn hb_online_init(
     len: usize,
     state: *mut HbOnlineState,
 ) -> i32 {
+    // SAFETY: the caller's contract is this function's.
+    unsafe { init(blob, len, OnlineConfig::default(), state) }
+}
+
+/// Initialises `state` as [`hb_online_init`] does, with the opt-ins on: the samples averaged
+/// over windows of `input_average_s` seconds before the filter takes them (0: none; 1 s suits a
+/// flight controller's noisy current sensor at 10 Hz or faster) and, when `thrust_limit_end` is
+/// non-zero, the predictions ended also where the rotors run out of thrust (it needs the blob's
+/// thrust-limit block and a logged current), with the one-sigma band sized for them
+/// (`OnlineConfig::with_opt_ins`). Returns `HB_OK` or a negative `HB_ERR_*`
+/// (`HB_ERR_OPTION` for a window that is not a finite number of seconds, 0 or more).
+/// # Safety
+/// As [`hb_online_init`].
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn hb_online_init_with(
+    blob: *const u8,
+    len: usize,
+    input_average_s: f64,
+    thrust_limit_end: i32,
+    state: *mut HbOnlineState,
+) -> i32 {
+    if !(input_average_s.is_finite() && input_average_s >= 0.0) {
+        if !state.is_null() {
+            // SAFETY: the caller passes a valid, writable `hb_online_state`.
+            unsafe { (*state).words[0] = 0 };
+        }
+        return HB_ERR_OPTION;
+    }
+    let config = OnlineConfig::default().with_opt_ins(input_average_s, thrust_limit_end != 0);
+    // SAFETY: the caller's contract is this function's.
+    unsafe { init(blob, len, config, state) }
+}
+
+/// [`hb_online_init`] with `config`.
+/// # Safety
+/// As [`hb_online_init`].
+unsafe fn init(
+    blob: *const u8,
+    len: usize,
+    config: OnlineConfig,
+    state: *mut HbOnlineState,
+) -> i32 {
     if blob.is_null() || state.is_null() {
         return HB_ERR_NULL;
     }
@@ -297,7 +343,7 @@ pub unsafe extern "C" fn hb_online_init(
     if params.vehicle.is_none() {
         return HB_ERR_NO_VEHICLE;
     }
-    match OnlineEstimator::from_params(&params, &OnlineConfig::default()) {
+    match OnlineEstimator::from_params(&params, &config) {
         Ok(est) => {
             state.store(est);
             HB_OK

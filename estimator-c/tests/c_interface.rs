@@ -130,9 +130,32 @@ fn compile(dir: &Path) -> PathBuf {
 
 #[test]
 fn c_program_agrees_with_the_rust_estimator() {
+    agrees(false);
+}
+
+/// `hb_online_init_with` (1 s windows, the thrust-limit end, on a blob with a thrust limit) is
+/// `OnlineConfig::with_opt_ins`, and a window that is not a number is `HB_ERR_OPTION` (the C
+/// program checks it).
+#[test]
+fn c_program_with_the_opt_ins_agrees_with_the_rust_estimator() {
+    agrees(true);
+}
+
+/// Runs the C program over [`samples`] (with the opt-ins or not) and compares every 50th
+/// estimate with the Rust estimator's.
+fn agrees(opt_ins: bool) {
     let dir = tempfile::tempdir().unwrap();
     let exe = compile(dir.path());
-    let p = params();
+    let mut p = params();
+    let mut config = OnlineConfig::default();
+    if opt_ins {
+        p.thrust_limit = Some(estimator::ThrustLimit {
+            per_rotor_g: 150.0,
+            uncertainty_g: 3.0,
+            supply_voltage_v: 10.6,
+        });
+        config = config.with_opt_ins(1.0, true);
+    }
     let mut blob = [0u8; estimator::params::MAX_BLOB_LEN];
     let n = p.encode(&mut blob).unwrap();
     let blob_path = dir.path().join("params.hbp");
@@ -153,15 +176,16 @@ fn c_program_agrees_with_the_rust_estimator() {
         .collect();
     let samples_path = dir.path().join("samples.txt");
     std::fs::write(&samples_path, text).unwrap();
-    let out = Command::new(&exe)
-        .arg(&blob_path)
-        .arg(&samples_path)
-        .output()
-        .unwrap();
+    let mut cmd = Command::new(&exe);
+    cmd.arg(&blob_path).arg(&samples_path);
+    if opt_ins {
+        cmd.arg("opt-ins");
+    }
+    let out = cmd.output().unwrap();
     let stdout = String::from_utf8(out.stdout).unwrap();
     assert!(out.status.success(), "exit {:?}: {stdout}", out.status);
 
-    let mut est = OnlineEstimator::from_params(&p, &OnlineConfig::default()).unwrap();
+    let mut est = OnlineEstimator::from_params(&p, &config).unwrap();
     est.set_plan(
         &[
             Segment::Hover { duration_min: 3.0 },

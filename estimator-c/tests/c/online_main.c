@@ -1,4 +1,5 @@
-/* Drives libhoverbench_online.a from C: init from a blob file, a plan, then every sample of a
+/* Drives libhoverbench_online.a from C: init from a blob file (with a third argument "opt-ins":
+ * hb_online_init_with, 1 s windows and the thrust-limit end), a plan, then every sample of a
  * text file ("time_s voltage_v current_a|nan phase" per line), with a capacity reading of 0.9
  * (one-sigma 0.04) fused after the first; prints the estimate every 50 samples for the Rust
  * test to compare. */
@@ -19,8 +20,8 @@ int main(int argc, char **argv) {
     int phase, rc, observed = 0;
     hb_plan_segment plan[2];
 
-    if (argc != 3) {
-        fprintf(stderr, "usage: %s BLOB SAMPLES\n", argv[0]);
+    if (argc != 3 && !(argc == 4 && strcmp(argv[3], "opt-ins") == 0)) {
+        fprintf(stderr, "usage: %s BLOB SAMPLES [opt-ins]\n", argv[0]);
         return 2;
     }
     /* Misuse is an error code, not a crash. */
@@ -35,7 +36,11 @@ int main(int argc, char **argv) {
     if (!f) return 4;
     len = fread(blob, 1, sizeof blob, f);
     fclose(f);
-    rc = hb_online_init(blob, len, &state);
+    if (hb_online_init_with(blob, len, NAN, 0, &state) != HB_ERR_OPTION) return 3;
+    if (hb_online_init_with(blob, len, -1.0, 0, &state) != HB_ERR_OPTION) return 3;
+    if (hb_online_read(&state, &e) != HB_ERR_NOT_INITIALISED) return 3;
+    rc = argc == 4 ? hb_online_init_with(blob, len, 1.0, 1, &state)
+                   : hb_online_init(blob, len, &state);
     if (rc != HB_OK) {
         printf("init %d\n", (int)rc);
         return 1;
