@@ -111,6 +111,55 @@ fn out_folder_has_plots_table_and_json_and_is_replaced_whole() {
     assert!(
         csv.starts_with("flight,fraction,time_s,duration_s,true_remaining_s,online_remaining_s")
     );
+    // The two flights that landed before the cut-off: what each method said, plotted and
+    // tabled (no truth to score).
+    for f in [
+        "replay-unscored-01-13-landed-A.svg",
+        "replay-unscored-02-14-stopped-A.png",
+    ] {
+        assert!(out.join(f).exists(), "{f}");
+    }
+    let svg = std::fs::read_to_string(out.join("replay-unscored-01-13-landed-A.svg")).unwrap();
+    assert!(svg.contains("no truth to score"), "subtitle");
+    let csv = std::fs::read_to_string(out.join("replay-unscored.csv")).unwrap();
+    assert!(csv.starts_with(
+        "flight,time_since_takeoff_s,online_remaining_s,px4_remaining_s,coulomb_remaining_s,static_model_remaining_s,online_sigma_s\n"
+    ));
+    for name in ["13-landed-A,", "14-stopped-A,"] {
+        assert!(
+            csv.lines().filter(|l| l.starts_with(name)).count() > 50,
+            "{name}"
+        );
+    }
+}
+
+/// A flight that landed before the cut-off is not scored, but the methods still fly it: its
+/// skipped entry says what each predicted was left to the cut-off at landing (JSON and text).
+#[test]
+fn flights_that_landed_early_say_what_each_method_predicted_at_landing() {
+    let v: Value =
+        serde_json::from_str(&ok(&["replay", "--params", &params(), DATA, "--json"])).unwrap();
+    let skipped = v["skipped"].as_array().unwrap();
+    for k in skipped {
+        let t = &k["trace"];
+        let flown = t["flown_s"].as_f64().unwrap();
+        assert!(
+            (flown - (t["landed_s"].as_f64().unwrap() - t["takeoff_s"].as_f64().unwrap())).abs()
+                < 1e-9
+        );
+        assert!(flown > 60.0, "{k}");
+        for m in ["online", "px4", "coulomb", "static_model"] {
+            let r = t["remaining_at_landing_s"][m].as_f64().unwrap();
+            assert!(r > 0.0 && r.is_finite(), "{m}: {k}");
+        }
+        assert!(t["online_sigma_at_landing_s"].as_f64().unwrap() > 0.0);
+        assert!(t["final_state"]["soc"].as_f64().unwrap() > 0.0);
+    }
+    let text = ok(&["replay", "--params", &params(), DATA]);
+    assert!(
+        text.contains("left to the cut-off at landing, as predicted: online "),
+        "{text}"
+    );
 }
 
 /// `--thrust-limit-end` needs a `[thrust_limit]`, and with one whose floor lies well above the

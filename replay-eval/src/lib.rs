@@ -483,6 +483,7 @@ pub fn prepare_scenario_with(
                 reason: format!("no training flight of pack {id}"),
                 capacity_reading: None,
                 capacity_carried: None,
+                trace: None,
             });
             continue;
         };
@@ -590,6 +591,7 @@ fn replay_scenario_by(
             params: prepared.params,
             online: Some(online.as_ref()),
             chemistry: Some(battery.chemistry),
+            trace_unscored: false,
         };
         let h = pack_history.then_some(&mut history);
         match replay::replay_flight_with_history(flight, &rc, h) {

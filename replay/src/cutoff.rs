@@ -59,6 +59,9 @@ impl FlightSpan {
     }
 }
 
+/// Shortest flight scored (or traced), s: shorter, the take-off's transient is all there is.
+pub const MIN_FLIGHT_S: f64 = 10.0;
+
 /// First and last flying sample times (first and last sample without phases); `None` when no
 /// sample flies.
 pub fn flying_span(flight: &Flight) -> Option<(f64, f64)> {
@@ -78,9 +81,9 @@ pub fn detect(flight: &Flight) -> Result<FlightSpan, String> {
     let Some((takeoff_s, end_s)) = flying_span(flight) else {
         return Err("no sample in a flying phase".to_owned());
     };
-    if end_s - takeoff_s < 10.0 {
+    if end_s - takeoff_s < MIN_FLIGHT_S {
         return Err(format!(
-            "flies only {:.1} s (under 10 s)",
+            "flies only {:.1} s (under {MIN_FLIGHT_S:.0} s)",
             (end_s - takeoff_s).max(0.0)
         ));
     }

@@ -441,6 +441,7 @@ mod tests {
             params,
             online: Some(&online),
             chemistry: None,
+            trace_unscored: false,
         };
         let mut h = PackHistory::new();
         let r = crate::replay_flight_with_history(&f, &config, Some(&mut h)).unwrap();

@@ -67,8 +67,8 @@ use flightlog::Flight;
 pub use cutoff::{CutoffEvidence, FlightSpan};
 pub use methods::{FlightSetup, METHODS, PlanLeg, Prediction, Predictor, Sample};
 pub use score::{
-    Checkpoint, CheckpointSummary, Coverage, FRACTIONS, FlightReplay, MethodSeries, Replay,
-    SkippedFlight, Summary,
+    Checkpoint, CheckpointSummary, Coverage, FRACTIONS, FlightReplay, FlightTrace, MethodSeries,
+    Replay, SkippedFlight, Summary,
 };
 
 /// Most points a plotted series keeps.
@@ -108,6 +108,9 @@ pub struct ReplayConfig<'a> {
     /// The pack's chemistry, for the PX4 baseline's cell voltages
     /// ([`methods::Px4Battery::of`]; `None`: PX4's defaults).
     pub chemistry: Option<estimator::online::Chemistry>,
+    /// Fly the methods also over flights that landed before the cut-off, for what they said
+    /// ([`SkippedFlight::trace`]); they are still not scored.
+    pub trace_unscored: bool,
 }
 
 impl ReplayConfig<'_> {
@@ -117,6 +120,7 @@ impl ReplayConfig<'_> {
             params,
             online: None,
             chemistry: None,
+            trace_unscored: false,
         }
     }
 
@@ -273,63 +277,34 @@ pub fn replay_flight_with_history(
                 reading_of_unscored(flight, config, pack_id.as_deref(), factor, h)
             }),
             capacity_carried: carried.clone(),
+            trace: None,
         })
     };
     let span = match cutoff::detect(flight) {
         Ok(span) => span,
+        Err(why) => {
+            let mut k = skip(why, history);
+            if config.trace_unscored {
+                k.trace = trace_unscored(flight, config, carried.as_ref().map(|c| c.1)).ok();
+            }
+            return Err(k);
+        }
+    };
+    let plan = methods::mission_plan(flight, &span);
+    let Methods {
+        mut online,
+        mut baselines,
+        unavailable,
+    } = match Methods::for_flight(
+        flight,
+        config,
+        carried.as_ref().map(|c| c.1),
+        &plan,
+        span.takeoff_s,
+    ) {
+        Ok(m) => m,
         Err(why) => return Err(skip(why, history)),
     };
-    let mut setup = FlightSetup::of(flight);
-    setup.capacity_reading = carried.as_ref().map(|c| (c.1, history::READING_SIGMA));
-    let plan = methods::mission_plan(flight, &span);
-    let mut unavailable: Vec<(&'static str, String)> = Vec::new();
-    let mut online: Option<Box<dyn OnlinePredictor>> = match config.online {
-        None => {
-            unavailable.push((methods::ONLINE, "not run (no online estimator)".to_owned()));
-            None
-        }
-        Some(b) => match b.build(&setup, &plan, span.takeoff_s) {
-            Ok(p) => Some(p),
-            Err(e) => {
-                unavailable.push((methods::ONLINE, e));
-                None
-            }
-        },
-    };
-    let has_current = flight.samples.current_a.is_some();
-    let mut baselines: [Option<Box<dyn Predictor>>; 3] = [None, None, None];
-    match (setup.cells, setup.rated_capacity_ah) {
-        _ if !has_current => {
-            unavailable.push((methods::PX4, "no current logged".to_owned()));
-            unavailable.push((methods::COULOMB, "no current logged".to_owned()));
-        }
-        (Some(c), Some(ah)) => {
-            baselines[0] = Some(Box::new(methods::Px4TimeRemaining::new(
-                methods::Px4Params::configured(c, ah * 1000.0, &config.px4_battery()),
-            )));
-            baselines[1] = Some(Box::new(methods::CoulombCounter::new(ah)));
-        }
-        _ => {
-            let why = "metadata lacks cells or a rated capacity".to_owned();
-            unavailable.push((methods::PX4, why.clone()));
-            unavailable.push((methods::COULOMB, why));
-        }
-    }
-    match methods::StaticModel::new(&config.params, &setup, &plan, span.takeoff_s) {
-        Ok(m) => baselines[2] = Some(Box::new(m)),
-        Err(e) => unavailable.push((methods::STATIC, e)),
-    }
-
-    if online.is_none() && baselines.iter().all(Option::is_none) {
-        let why: Vec<String> = unavailable
-            .iter()
-            .map(|(m, r)| format!("{m}: {r}"))
-            .collect();
-        return Err(skip(
-            format!("no method can run on it ({})", why.join("; ")),
-            history,
-        ));
-    }
     let s = &flight.samples;
     let n = s.len();
     // Checkpoint instants and the sample index each is scored at.
@@ -338,34 +313,14 @@ pub fn replay_flight_with_history(
         .map(|f| span.takeoff_s + f * span.duration_s())
         .collect();
     let mut checkpoints: Vec<Option<Checkpoint>> = vec![None; targets.len()];
-    let flying_from = s.time_s.partition_point(|&t| t < span.takeoff_s);
-    let stride = ((n - flying_from) / MAX_SERIES_POINTS).max(1);
-    let mut series_time_s = Vec::new();
-    let mut series: Vec<methods_series::Acc> = METHODS
-        .iter()
-        .map(|m| methods_series::Acc::new(m))
-        .collect();
+    let mut recorder = SeriesRecorder::new(flight, span.takeoff_s);
     for k in 0..n {
         let t = s.time_s[k];
         if t > span.end_s {
             break;
         }
-        let sample = sample_at(flight, k);
-        let mut preds: [Option<Prediction>; 4] = [None; 4];
-        if let Some(o) = online.as_mut() {
-            preds[0] = o.update(&sample).filter(|p| p.remaining_s.is_finite());
-        }
-        for (i, b) in baselines.iter_mut().enumerate() {
-            if let Some(b) = b {
-                preds[i + 1] = b.update(&sample).filter(|p| p.remaining_s.is_finite());
-            }
-        }
-        if k >= flying_from && (k - flying_from) % stride == 0 {
-            series_time_s.push(t);
-            for (acc, p) in series.iter_mut().zip(&preds) {
-                acc.push(p);
-            }
-        }
+        let preds = step(&mut online, &mut baselines, &sample_at(flight, k));
+        recorder.record(k, t, &preds);
         // The last sample at or before each checkpoint instant.
         let next_t = s.time_s.get(k + 1).copied().unwrap_or(f64::INFINITY);
         for (c, &target) in targets.iter().enumerate() {
@@ -412,37 +367,188 @@ pub fn replay_flight_with_history(
         evidence: span.evidence,
         checkpoints,
         unavailable,
-        series_time_s,
-        series: series
-            .into_iter()
-            .map(methods_series::Acc::finish)
-            .collect(),
+        series_time_s: recorder.time_s,
+        series: recorder.series,
         final_state,
     })
 }
 
-mod methods_series {
-    use super::{MethodSeries, Prediction};
+/// The methods flown over one flight: the online estimator and the three baselines, and why
+/// each that cannot run does not.
+struct Methods {
+    online: Option<Box<dyn OnlinePredictor>>,
+    baselines: [Option<Box<dyn Predictor>>; 3],
+    unavailable: Vec<(&'static str, String)>,
+}
 
-    pub(crate) struct Acc(MethodSeries);
-
-    impl Acc {
-        pub(crate) fn new(name: &'static str) -> Self {
-            Self(MethodSeries {
-                name,
-                ..MethodSeries::default()
-            })
+impl Methods {
+    /// The methods for `flight` flown with `plan` from `takeoff_s`, the online estimator with
+    /// the capacity factor its pack's history carried (`carried`); why none can run otherwise.
+    fn for_flight(
+        flight: &Flight,
+        config: &ReplayConfig<'_>,
+        carried: Option<f64>,
+        plan: &[PlanLeg],
+        takeoff_s: f64,
+    ) -> Result<Self, String> {
+        let mut setup = FlightSetup::of(flight);
+        setup.capacity_reading = carried.map(|factor| (factor, history::READING_SIGMA));
+        let mut unavailable: Vec<(&'static str, String)> = Vec::new();
+        let online: Option<Box<dyn OnlinePredictor>> = match config.online {
+            None => {
+                unavailable.push((methods::ONLINE, "not run (no online estimator)".to_owned()));
+                None
+            }
+            Some(b) => match b.build(&setup, plan, takeoff_s) {
+                Ok(p) => Some(p),
+                Err(e) => {
+                    unavailable.push((methods::ONLINE, e));
+                    None
+                }
+            },
+        };
+        let has_current = flight.samples.current_a.is_some();
+        let mut baselines: [Option<Box<dyn Predictor>>; 3] = [None, None, None];
+        match (setup.cells, setup.rated_capacity_ah) {
+            _ if !has_current => {
+                unavailable.push((methods::PX4, "no current logged".to_owned()));
+                unavailable.push((methods::COULOMB, "no current logged".to_owned()));
+            }
+            (Some(c), Some(ah)) => {
+                baselines[0] = Some(Box::new(methods::Px4TimeRemaining::new(
+                    methods::Px4Params::configured(c, ah * 1000.0, &config.px4_battery()),
+                )));
+                baselines[1] = Some(Box::new(methods::CoulombCounter::new(ah)));
+            }
+            _ => {
+                let why = "metadata lacks cells or a rated capacity".to_owned();
+                unavailable.push((methods::PX4, why.clone()));
+                unavailable.push((methods::COULOMB, why));
+            }
         }
-        pub(crate) fn push(&mut self, p: &Option<Prediction>) {
-            self.0
-                .remaining_s
-                .push(p.map_or(f64::NAN, |p| p.remaining_s));
-            self.0
-                .sigma_s
+        match methods::StaticModel::new(&config.params, &setup, plan, takeoff_s) {
+            Ok(m) => baselines[2] = Some(Box::new(m)),
+            Err(e) => unavailable.push((methods::STATIC, e)),
+        }
+        if online.is_none() && baselines.iter().all(Option::is_none) {
+            let why: Vec<String> = unavailable
+                .iter()
+                .map(|(m, r)| format!("{m}: {r}"))
+                .collect();
+            return Err(format!("no method can run on it ({})", why.join("; ")));
+        }
+        Ok(Self {
+            online,
+            baselines,
+            unavailable,
+        })
+    }
+}
+
+/// One sample through every method that runs: their predictions in [`METHODS`] order.
+fn step(
+    online: &mut Option<Box<dyn OnlinePredictor>>,
+    baselines: &mut [Option<Box<dyn Predictor>>; 3],
+    sample: &Sample,
+) -> [Option<Prediction>; 4] {
+    let mut preds: [Option<Prediction>; 4] = [None; 4];
+    if let Some(o) = online.as_mut() {
+        preds[0] = o.update(sample).filter(|p| p.remaining_s.is_finite());
+    }
+    for (i, b) in baselines.iter_mut().enumerate() {
+        if let Some(b) = b {
+            preds[i + 1] = b.update(sample).filter(|p| p.remaining_s.is_finite());
+        }
+    }
+    preds
+}
+
+/// What the methods said over a flight that landed before the cut-off: flown as a scored
+/// flight is, with its phase schedule as the plan (the last leg "hover until empty") up to its
+/// last flying sample.
+fn trace_unscored(
+    flight: &Flight,
+    config: &ReplayConfig<'_>,
+    carried: Option<f64>,
+) -> Result<FlightTrace, String> {
+    let (takeoff_s, landed_s) =
+        cutoff::flying_span(flight).ok_or_else(|| "no sample in a flying phase".to_owned())?;
+    if landed_s - takeoff_s < cutoff::MIN_FLIGHT_S {
+        return Err(format!("flies only {:.1} s", landed_s - takeoff_s));
+    }
+    let plan = methods::mission_plan_between(flight, takeoff_s, landed_s);
+    let Methods {
+        mut online,
+        mut baselines,
+        unavailable,
+    } = Methods::for_flight(flight, config, carried, &plan, takeoff_s)?;
+    let s = &flight.samples;
+    let mut recorder = SeriesRecorder::new(flight, takeoff_s);
+    let mut at_landing: [Option<Prediction>; 4] = [None; 4];
+    for k in 0..s.len() {
+        let t = s.time_s[k];
+        if t > landed_s {
+            break;
+        }
+        let preds = step(&mut online, &mut baselines, &sample_at(flight, k));
+        recorder.record(k, t, &preds);
+        for (last, p) in at_landing.iter_mut().zip(preds) {
+            if p.is_some() {
+                *last = p;
+            }
+        }
+    }
+    Ok(FlightTrace {
+        takeoff_s,
+        landed_s,
+        series_time_s: recorder.time_s,
+        series: recorder.series,
+        at_landing: at_landing
+            .iter()
+            .map(|p| p.map(|p| (p.remaining_s, p.sigma_s)))
+            .collect(),
+        unavailable,
+        final_state: online.as_ref().map(|o| o.final_state()).unwrap_or_default(),
+    })
+}
+
+/// Every method's predictions over a flight from take-off on, kept at most
+/// [`MAX_SERIES_POINTS`] times, for plots.
+struct SeriesRecorder {
+    flying_from: usize,
+    stride: usize,
+    time_s: Vec<f64>,
+    series: Vec<MethodSeries>,
+}
+
+impl SeriesRecorder {
+    fn new(flight: &Flight, takeoff_s: f64) -> Self {
+        let t = &flight.samples.time_s;
+        let flying_from = t.partition_point(|&x| x < takeoff_s);
+        Self {
+            flying_from,
+            stride: ((t.len() - flying_from) / MAX_SERIES_POINTS).max(1),
+            time_s: Vec::new(),
+            series: METHODS
+                .iter()
+                .map(|m| MethodSeries {
+                    name: m,
+                    ..MethodSeries::default()
+                })
+                .collect(),
+        }
+    }
+
+    /// The predictions after sample `k` (time `t`), kept when it is a plotted one.
+    fn record(&mut self, k: usize, t: f64, preds: &[Option<Prediction>; 4]) {
+        if k < self.flying_from || (k - self.flying_from) % self.stride != 0 {
+            return;
+        }
+        self.time_s.push(t);
+        for (m, p) in self.series.iter_mut().zip(preds) {
+            m.remaining_s.push(p.map_or(f64::NAN, |p| p.remaining_s));
+            m.sigma_s
                 .push(p.and_then(|p| p.sigma_s).unwrap_or(f64::NAN));
-        }
-        pub(crate) fn finish(self) -> MethodSeries {
-            self.0
         }
     }
 }

@@ -165,17 +165,22 @@ impl PlanLeg {
 
 /// The mission plan of a flight (see [`PlanLeg`]); a flight without phases is one open leg.
 pub fn mission_plan(flight: &Flight, span: &FlightSpan) -> Vec<PlanLeg> {
+    mission_plan_between(flight, span.takeoff_s, span.end_s)
+}
+
+/// [`mission_plan`] of the part of a flight from `takeoff_s` to `end_s` (log time).
+pub fn mission_plan_between(flight: &Flight, takeoff_s: f64, end_s: f64) -> Vec<PlanLeg> {
     let s = &flight.samples;
     let Some(ph) = &s.phase else {
         return vec![PlanLeg {
             attached: false,
-            start_s: span.takeoff_s,
+            start_s: takeoff_s,
             duration_s: None,
         }];
     };
     let mut legs: Vec<PlanLeg> = Vec::new();
     for (&t, p) in s.time_s.iter().zip(ph) {
-        if t < span.takeoff_s || t > span.end_s {
+        if t < takeoff_s || t > end_s {
             continue;
         }
         let attached = !p.is_flying();
@@ -189,7 +194,7 @@ pub fn mission_plan(flight: &Flight, span: &FlightSpan) -> Vec<PlanLeg> {
         }
     }
     for i in 0..legs.len() {
-        let end = legs.get(i + 1).map_or(span.end_s, |n| n.start_s);
+        let end = legs.get(i + 1).map_or(end_s, |n| n.start_s);
         legs[i].duration_s = Some(end - legs[i].start_s);
     }
     if let Some(l) = legs.last_mut() {

@@ -124,6 +124,39 @@ pub struct SkippedFlight {
     /// capacity), as [`FlightReplay::capacity_carried`].
     #[serde(skip)]
     pub capacity_carried: Option<(String, f64)>,
+    /// What the methods said over it when it flew but landed before the cut-off (no truth to
+    /// score against), when the replay asked for traces ([`crate::ReplayConfig::trace_unscored`]).
+    #[serde(skip)]
+    pub trace: Option<FlightTrace>,
+}
+
+/// What the methods said over a flight that landed before the cut-off, sample by sample as
+/// for a scored flight, with no truth to score against: the remaining time each predicted
+/// (to the cut-off, had the robot flown on) until it landed.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FlightTrace {
+    /// Take-off, s (log time).
+    pub takeoff_s: f64,
+    /// The last flying sample, s (log time).
+    pub landed_s: f64,
+    /// Plotted sample times, s (log time, from take-off on).
+    pub series_time_s: Vec<f64>,
+    /// One series per method, in [`METHODS`] order.
+    pub series: Vec<MethodSeries>,
+    /// Per method, in [`METHODS`] order: its last prediction at or before landing (remaining
+    /// time, s, and its one-sigma band when it has one).
+    pub at_landing: Vec<Option<(f64, Option<f64>)>>,
+    /// Methods that gave no prediction on this flight, with the reason.
+    pub unavailable: Vec<(&'static str, String)>,
+    /// Estimator states at landing (online method): (name, value).
+    pub final_state: Vec<(&'static str, f64)>,
+}
+
+impl FlightTrace {
+    /// Time flown, s.
+    pub fn flown_s(&self) -> f64 {
+        self.landed_s - self.takeoff_s
+    }
 }
 
 /// Per checkpoint: median absolute error per method and how many flights each had.
@@ -249,13 +282,52 @@ struct FlightJson<'a> {
     pack_history: Option<HistoryJson<'a>>,
 }
 
-/// A skipped flight, with the capacity it measured (`--pack-history` only).
+/// A skipped flight, with the capacity it measured (`--pack-history` only) and what the
+/// methods said over it (with traces).
 #[derive(Serialize)]
 struct SkippedJson<'a> {
     name: &'a str,
     reason: &'a str,
     #[serde(skip_serializing_if = "Option::is_none")]
     pack_history: Option<HistoryJson<'a>>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    trace: Option<TraceJson<'a>>,
+}
+
+/// What the methods said over a flight that landed before the cut-off.
+#[derive(Serialize)]
+struct TraceJson<'a> {
+    takeoff_s: f64,
+    landed_s: f64,
+    flown_s: f64,
+    /// Each method's last prediction before landing: remaining time to the cut-off, s.
+    remaining_at_landing_s: BTreeMap<&'static str, Option<f64>>,
+    /// The online estimator's one-sigma band then, s.
+    online_sigma_at_landing_s: Option<f64>,
+    unavailable: BTreeMap<&'static str, &'a str>,
+    final_state: BTreeMap<&'static str, f64>,
+}
+
+impl<'a> TraceJson<'a> {
+    fn of(t: &'a FlightTrace) -> Self {
+        Self {
+            takeoff_s: t.takeoff_s,
+            landed_s: t.landed_s,
+            flown_s: t.flown_s(),
+            remaining_at_landing_s: METHODS
+                .iter()
+                .zip(&t.at_landing)
+                .map(|(m, p)| (*m, p.map(|p| p.0)))
+                .collect(),
+            online_sigma_at_landing_s: t.at_landing.first().copied().flatten().and_then(|p| p.1),
+            unavailable: t
+                .unavailable
+                .iter()
+                .map(|(m, r)| (*m, r.as_str()))
+                .collect(),
+            final_state: t.final_state.iter().copied().collect(),
+        }
+    }
 }
 
 /// A flight's part in the packs' history (`--pack-history` only).
@@ -375,6 +447,7 @@ impl Replay {
                             .map(crate::history::CapacityReading::factor),
                         no_reading: r.as_ref().err().map(String::as_str),
                     }),
+                    trace: k.trace.as_ref().map(TraceJson::of),
                 })
                 .collect(),
             summary: &self.summary,
@@ -410,6 +483,31 @@ impl Replay {
                     );
                 }
                 let _ = writeln!(s, ",{}", opt(k.sigma_s, 2));
+            }
+        }
+        s
+    }
+
+    /// The flights that landed before the cut-off and were traced ([`SkippedFlight::trace`]),
+    /// as CSV: per plotted sample, each method's predicted remaining time to the cut-off and
+    /// the online estimator's one-sigma band.
+    pub fn unscored_csv(&self) -> String {
+        let mut s = String::from("flight,time_since_takeoff_s");
+        for m in METHODS {
+            let _ = write!(s, ",{m}_remaining_s");
+        }
+        s.push_str(",online_sigma_s\n");
+        let cell = |v: f64| opt(v.is_finite().then_some(v), 2);
+        for k in &self.skipped {
+            let Some(t) = &k.trace else { continue };
+            let name = csv_field(&k.name);
+            for (i, time) in t.series_time_s.iter().enumerate() {
+                let _ = write!(s, "{name},{:.2}", time - t.takeoff_s);
+                for m in &t.series {
+                    let _ = write!(s, ",{}", cell(m.remaining_s[i]));
+                }
+                let sigma = t.series.first().map_or(f64::NAN, |m| m.sigma_s[i]);
+                let _ = writeln!(s, ",{}", cell(sigma));
             }
         }
         s
@@ -483,6 +581,9 @@ impl Replay {
             let _ = writeln!(s, "\nskipped ({}):", self.skipped.len());
             for k in &self.skipped {
                 let _ = writeln!(s, "  {}: {}", k.name, k.reason);
+                if let Some(t) = &k.trace {
+                    s += &trace_line(t);
+                }
                 if let Some((from, factor)) = &k.capacity_carried {
                     s += &carried_line(from, *factor);
                 }
@@ -564,6 +665,31 @@ fn without_numbers(reason: &str) -> String {
     out
 }
 
+/// What the methods said at landing on a flight that landed before the cut-off.
+fn trace_line(t: &FlightTrace) -> String {
+    let cells: Vec<String> = METHODS
+        .iter()
+        .zip(&t.at_landing)
+        .filter_map(|(m, p)| {
+            p.map(|(r, sigma)| match sigma {
+                Some(sg) => format!("{m} {:.1} ± {:.1} min", r / 60.0, sg / 60.0),
+                None => format!("{m} {:.1} min", r / 60.0),
+            })
+        })
+        .collect();
+    if cells.is_empty() {
+        return format!(
+            "    flew {:.0} s; no method gave a prediction\n",
+            t.flown_s()
+        );
+    }
+    format!(
+        "    flew {:.0} s; left to the cut-off at landing, as predicted: {}\n",
+        t.flown_s(),
+        cells.join(", ")
+    )
+}
+
 /// The text line of the reading a flight flew with (`--pack-history`).
 fn carried_line(from: &str, factor: f64) -> String {
     format!(
@@ -606,6 +732,7 @@ mod tests {
                 reason: (*r).to_owned(),
                 capacity_reading: None,
                 capacity_carried: None,
+                trace: None,
             })
             .collect();
         Replay::new(Vec::new(), skipped)

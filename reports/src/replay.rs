@@ -73,10 +73,15 @@ impl Draw for ReplayFlightFigure {
     }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
+        let truth_known = self.true_remaining_s.iter().any(|v| v.is_finite());
         let body = render::titled(
             root,
             &format!("Replay · {}", self.name),
-            "remaining time to the cut-off, predicted sample by sample, against the truth",
+            if truth_known {
+                "remaining time to the cut-off, predicted sample by sample, against the truth"
+            } else {
+                "landed before the cut-off: the remaining time to it as each method predicted (no truth to score)"
+            },
         )?;
         let x1 = finite_max(self.time_s.iter().map(|t| t / 60.0)).max(1e-3);
         let y1 = finite_max(self.true_remaining_s.iter().copied().chain(
@@ -88,8 +93,12 @@ impl Draw for ReplayFlightFigure {
             }),
         )) / 60.0;
         // Keep the truth readable when a method predicts far too long.
-        let cap = finite_max(self.true_remaining_s.iter().copied()) / 60.0 * 2.0;
-        let y1 = y1.min(cap.max(1e-3)) * 1.05;
+        let y1 = if truth_known {
+            let cap = finite_max(self.true_remaining_s.iter().copied()) / 60.0 * 2.0;
+            y1.min(cap.max(1e-3))
+        } else {
+            y1.max(1e-3)
+        } * 1.05;
         let mut chart = render::chart(
             &body,
             None,
@@ -220,38 +229,42 @@ impl Draw for ReplayErrorFigure {
     }
 }
 
-/// Renders the figures of a replay: one per flight (`replay-flight-NN-NAME.{svg,png}`) and the
-/// summary (`replay-error-by-checkpoint.{svg,png}`); everything is rendered before anything is
-/// written, into `dir` (which must exist).
-pub fn write_replay_figures(
+/// Renders one figure per flight that landed before the cut-off
+/// (`replay-unscored-NN-NAME.{svg,png}`: [`ReplayFlightFigure`]s whose truth is all NaN) into
+/// `dir` (which must exist); everything is rendered before anything is written.
+pub fn write_unscored_figures(
     flights: &[ReplayFlightFigure],
-    summary: &ReplayErrorFigure,
     dir: &Path,
 ) -> Result<Vec<PathBuf>, crate::ReportError> {
     let mut rendered = Vec::new();
     for (i, f) in flights.iter().enumerate() {
-        let safe: String = f
-            .name
-            .chars()
-            .map(|c| {
-                if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                    c
-                } else {
-                    '_'
-                }
-            })
-            .collect();
         rendered.push((
-            format!("{}-{:02}-{safe}", f.stem(), i + 1),
+            format!("replay-unscored-{:02}-{}", i + 1, safe_name(&f.name)),
             render::svg(f)?,
             render::png(f)?,
         ));
     }
-    rendered.push((
-        summary.stem().to_owned(),
-        render::svg(summary)?,
-        render::png(summary)?,
-    ));
+    write_rendered(rendered, dir)
+}
+
+/// A flight's name as a file name's part: ASCII letters, digits, `-` and `_`; `_` for the rest.
+fn safe_name(name: &str) -> String {
+    name.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// Writes rendered figures (stem, SVG, PNG) into `dir`, each atomically.
+fn write_rendered(
+    rendered: Vec<(String, String, Vec<u8>)>,
+    dir: &Path,
+) -> Result<Vec<PathBuf>, crate::ReportError> {
     let mut out = Vec::new();
     for (stem, svg, png) in rendered {
         let s = dir.join(format!("{stem}.svg"));
@@ -264,9 +277,58 @@ pub fn write_replay_figures(
     Ok(out)
 }
 
+/// Renders the figures of a replay: one per flight (`replay-flight-NN-NAME.{svg,png}`) and the
+/// summary (`replay-error-by-checkpoint.{svg,png}`); everything is rendered before anything is
+/// written, into `dir` (which must exist).
+pub fn write_replay_figures(
+    flights: &[ReplayFlightFigure],
+    summary: &ReplayErrorFigure,
+    dir: &Path,
+) -> Result<Vec<PathBuf>, crate::ReportError> {
+    let mut rendered = Vec::new();
+    for (i, f) in flights.iter().enumerate() {
+        rendered.push((
+            format!("{}-{:02}-{}", f.stem(), i + 1, safe_name(&f.name)),
+            render::svg(f)?,
+            render::png(f)?,
+        ));
+    }
+    rendered.push((
+        summary.stem().to_owned(),
+        render::svg(summary)?,
+        render::png(summary)?,
+    ));
+    write_rendered(rendered, dir)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_flight_without_truth_renders_its_predictions_alone() {
+        let t: Vec<f64> = (0..50).map(|k| f64::from(k) * 6.0).collect();
+        let f = ReplayFlightFigure {
+            name: "landed".into(),
+            time_s: t.clone(),
+            true_remaining_s: vec![f64::NAN; 50],
+            methods: vec![ReplayMethodSeries {
+                name: "online".into(),
+                remaining_s: t.iter().map(|x| 900.0 - x).collect(),
+                sigma_s: vec![30.0; 50],
+            }],
+        };
+        let svg = render::svg(&f).unwrap();
+        assert!(svg.contains("no truth to score") && svg.contains("online ± 1σ"));
+        assert!(!svg.contains("true remaining"));
+        let dir = tempfile::tempdir().unwrap();
+        let written = write_unscored_figures(&[f], dir.path()).unwrap();
+        assert!(
+            written
+                .iter()
+                .any(|p| p.ends_with("replay-unscored-01-landed.png"))
+        );
+    }
 
     #[test]
     fn figures_render_with_gaps_and_bands() {

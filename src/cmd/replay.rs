@@ -32,7 +32,9 @@ pub struct Args {
     #[arg(long)]
     json: bool,
     /// Write plots (per flight and a summary, SVG and PNG), the table as CSV and the JSON into
-    /// this folder (replaced as a whole, atomically).
+    /// this folder (replaced as a whole, atomically); flights that landed before the cut-off
+    /// get a plot of what each method predicted (`replay-unscored-*`) and
+    /// `replay-unscored.csv`.
     #[arg(short = 'o', long, value_name = "DIR")]
     out: Option<PathBuf>,
     /// End the online estimator's predictions also where the rotors run out of thrust (the
@@ -79,6 +81,7 @@ pub fn run(args: Args) -> Result<()> {
             reason: error_chain(&s.reason),
             capacity_reading: None,
             capacity_carried: None,
+            trace: None,
         })
         .collect();
     if args.thrust_limit_end && file.thrust_limit.is_none() {
@@ -103,6 +106,7 @@ pub fn run(args: Args) -> Result<()> {
         params,
         online: online.as_ref().ok().map(|o| o.as_ref()),
         chemistry,
+        trace_unscored: true,
     };
     let px4 = config.px4_battery();
     let bar = indicatif::ProgressBar::new(set.flights.len() as u64);
@@ -184,16 +188,30 @@ fn flight_figure(f: &FlightReplay) -> ReplayFlightFigure {
         name: f.name.clone(),
         time_s: f.series_time_s.iter().map(|t| t - f.takeoff_s).collect(),
         true_remaining_s: f.series_time_s.iter().map(|t| f.end_s - t).collect(),
-        methods: f
-            .series
-            .iter()
-            .filter(|m| m.remaining_s.iter().any(|v| v.is_finite()))
-            .map(|m| ReplayMethodSeries {
-                name: m.name.to_owned(),
-                remaining_s: m.remaining_s.clone(),
-                sigma_s: m.sigma_s.clone(),
-            })
-            .collect(),
+        methods: plotted(&f.series),
+    }
+}
+
+/// The methods that predicted anything, as the figure's series.
+fn plotted(series: &[replay::MethodSeries]) -> Vec<ReplayMethodSeries> {
+    series
+        .iter()
+        .filter(|m| m.remaining_s.iter().any(|v| v.is_finite()))
+        .map(|m| ReplayMethodSeries {
+            name: m.name.to_owned(),
+            remaining_s: m.remaining_s.clone(),
+            sigma_s: m.sigma_s.clone(),
+        })
+        .collect()
+}
+
+/// A flight that landed before the cut-off, as a figure: each method's prediction, no truth.
+fn trace_figure(name: &str, t: &replay::FlightTrace) -> ReplayFlightFigure {
+    ReplayFlightFigure {
+        name: name.to_owned(),
+        time_s: t.series_time_s.iter().map(|x| x - t.takeoff_s).collect(),
+        true_remaining_s: vec![f64::NAN; t.series_time_s.len()],
+        methods: plotted(&t.series),
     }
 }
 
@@ -220,6 +238,18 @@ fn write_folder(r: &Replay, px4: &Px4Battery, dir: &std::path::Path) -> Result<(
             .collect(),
     };
     reports::replay::write_replay_figures(&flights, &summary, staged.path())?;
+    let traces: Vec<ReplayFlightFigure> = r
+        .skipped
+        .iter()
+        .filter_map(|k| k.trace.as_ref().map(|t| trace_figure(&k.name, t)))
+        .collect();
+    if !traces.is_empty() {
+        reports::replay::write_unscored_figures(&traces, staged.path())?;
+        outfile::write_atomic(
+            &staged.path().join("replay-unscored.csv"),
+            r.unscored_csv().as_bytes(),
+        )?;
+    }
     outfile::write_atomic(
         &staged.path().join("replay.json"),
         serde_json::to_string_pretty(&json(r, px4)?)?.as_bytes(),
