@@ -77,6 +77,16 @@ fn replay_on_the_real_px4_and_ardupilot_logs_scores_none_as_the_readme_says() {
         err.contains("no flight was scored: all 9 skipped; the most common reason (3 of 9): flightreview_ekf_failure: ends at 23.97 V"),
         "{err}"
     );
+    // Not scored, but flown where a method can run (session 15): the dronekit log's PX4 and
+    // coulomb baselines say what was left at landing; where none can, the list says why.
+    assert!(
+        out.contains("flew 170 s; left to the cut-off at landing, as predicted: px4 "),
+        "{out}"
+    );
+    assert!(
+        out.contains("not flown by the methods: no method can run on it (online: no vehicle"),
+        "{out}"
+    );
 }
 
 #[test]

@@ -284,8 +284,15 @@ pub fn replay_flight_with_history(
         Ok(span) => span,
         Err(why) => {
             let mut k = skip(why, history);
-            if config.trace_unscored {
-                k.trace = trace_unscored(flight, config, carried.as_ref().map(|c| c.1)).ok();
+            // A flight too short to score is not traced either (its reason says so already).
+            let flew =
+                cutoff::flying_span(flight).is_some_and(|(a, b)| b - a >= cutoff::MIN_FLIGHT_S);
+            if config.trace_unscored && flew {
+                k.trace = Some(trace_unscored(
+                    flight,
+                    config,
+                    carried.as_ref().map(|c| c.1),
+                ));
             }
             return Err(k);
         }

@@ -125,9 +125,10 @@ pub struct SkippedFlight {
     #[serde(skip)]
     pub capacity_carried: Option<(String, f64)>,
     /// What the methods said over it when it flew but landed before the cut-off (no truth to
-    /// score against), when the replay asked for traces ([`crate::ReplayConfig::trace_unscored`]).
+    /// score against), or why they could not fly it, when the replay asked for traces
+    /// ([`crate::ReplayConfig::trace_unscored`]).
     #[serde(skip)]
-    pub trace: Option<FlightTrace>,
+    pub trace: Option<Result<FlightTrace, String>>,
 }
 
 /// What the methods said over a flight that landed before the cut-off, sample by sample as
@@ -292,6 +293,9 @@ struct SkippedJson<'a> {
     pack_history: Option<HistoryJson<'a>>,
     #[serde(skip_serializing_if = "Option::is_none")]
     trace: Option<TraceJson<'a>>,
+    /// Why the methods could not fly it (with traces).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    not_traced: Option<&'a str>,
 }
 
 /// What the methods said over a flight that landed before the cut-off.
@@ -447,7 +451,16 @@ impl Replay {
                             .map(crate::history::CapacityReading::factor),
                         no_reading: r.as_ref().err().map(String::as_str),
                     }),
-                    trace: k.trace.as_ref().map(TraceJson::of),
+                    trace: k
+                        .trace
+                        .as_ref()
+                        .and_then(|t| t.as_ref().ok())
+                        .map(TraceJson::of),
+                    not_traced: k
+                        .trace
+                        .as_ref()
+                        .and_then(|t| t.as_ref().err())
+                        .map(String::as_str),
                 })
                 .collect(),
             summary: &self.summary,
@@ -499,7 +512,7 @@ impl Replay {
         s.push_str(",online_sigma_s\n");
         let cell = |v: f64| opt(v.is_finite().then_some(v), 2);
         for k in &self.skipped {
-            let Some(t) = &k.trace else { continue };
+            let Some(Ok(t)) = &k.trace else { continue };
             let name = csv_field(&k.name);
             for (i, time) in t.series_time_s.iter().enumerate() {
                 let _ = write!(s, "{name},{:.2}", time - t.takeoff_s);
@@ -581,8 +594,12 @@ impl Replay {
             let _ = writeln!(s, "\nskipped ({}):", self.skipped.len());
             for k in &self.skipped {
                 let _ = writeln!(s, "  {}: {}", k.name, k.reason);
-                if let Some(t) = &k.trace {
-                    s += &trace_line(t);
+                match &k.trace {
+                    Some(Ok(t)) => s += &trace_line(t),
+                    Some(Err(why)) => {
+                        let _ = writeln!(s, "    not flown by the methods: {why}");
+                    }
+                    None => {}
                 }
                 if let Some((from, factor)) = &k.capacity_carried {
                     s += &carried_line(from, *factor);

@@ -241,7 +241,10 @@ fn write_folder(r: &Replay, px4: &Px4Battery, dir: &std::path::Path) -> Result<(
     let traces: Vec<ReplayFlightFigure> = r
         .skipped
         .iter()
-        .filter_map(|k| k.trace.as_ref().map(|t| trace_figure(&k.name, t)))
+        .filter_map(|k| match &k.trace {
+            Some(Ok(t)) => Some(trace_figure(&k.name, t)),
+            _ => None,
+        })
         .collect();
     if !traces.is_empty() {
         reports::replay::write_unscored_figures(&traces, staged.path())?;
