@@ -28,7 +28,8 @@ pub struct Args {
     #[arg(required = true, value_name = "FLIGHTS")]
     flights: Vec<PathBuf>,
     /// Print machine-readable JSON instead of the table (with no flight scored: the skipped
-    /// flights and an empty summary, then exit 2).
+    /// flights, each that flew with what the methods predicted at landing, and an empty
+    /// summary, then exit 2).
     #[arg(long)]
     json: bool,
     /// Write plots (per flight and a summary, SVG and PNG), the table as CSV and the JSON into
