@@ -486,3 +486,35 @@ fn replay_eval_input_average_moves_only_logs_faster_than_the_window() {
     assert_ne!(errors(&a, "online"), errors(&b, "online"));
     assert_eq!(errors(&a, "static_model"), errors(&b, "static_model"));
 }
+
+/// `replay-eval` says what the online estimator ran with: a first line in the text, `online`
+/// in the JSON (the opt-ins and the band that goes with them).
+#[test]
+fn replay_eval_says_what_the_online_estimator_ran_with() {
+    let base = [
+        "replay-eval",
+        "--scenarios",
+        "1",
+        "--seed",
+        "25",
+        "--families",
+        "lipo/lab-1hz/paper",
+    ];
+    let text = ok(&base);
+    assert!(
+        text.starts_with("online estimator: the defaults\n"),
+        "{text}"
+    );
+    let mut with = base.to_vec();
+    with.extend(["--input-average", "1", "--thrust-limit-end"]);
+    let text = ok(&with);
+    assert!(
+        text.starts_with("online estimator: samples averaged over 1 s, the thrust-limit end (flights with a current); band end_soc_sigma 0.04\n"),
+        "{text}"
+    );
+    with.push("--json");
+    let v: Value = serde_json::from_str(&ok(&with)).unwrap();
+    assert_eq!(v["online"]["input_average_s"], 1.0);
+    assert_eq!(v["online"]["thrust_limit_end"], true);
+    assert_eq!(v["online"]["end_soc_sigma"], 0.04);
+}
