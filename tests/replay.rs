@@ -447,22 +447,17 @@ fn replay_eval_voltage_only_drops_the_current_and_keeps_the_flights() {
     assert_eq!(half(&with, "static_model"), half(&without, "static_model"));
 }
 
+/// `replay-eval` on one scenario (seed 25).
+const ONE_SCENARIO: [&str; 5] = ["replay-eval", "--scenarios", "1", "--seed", "25"];
+
 /// `replay-eval --input-average 1`: the online estimator averages the samples over 1 s windows.
 /// A 1 Hz lab log is taken sample by sample all the same (its JSON is the same), a 10 Hz
 /// flight controller's is not (its online errors move); the baselines never change.
 #[test]
 fn replay_eval_input_average_moves_only_logs_faster_than_the_window() {
     let run_eval = |family: &str, extra: &[&str]| -> Value {
-        let mut a = vec![
-            "replay-eval",
-            "--scenarios",
-            "1",
-            "--seed",
-            "25",
-            "--families",
-            family,
-            "--json",
-        ];
+        let mut a = ONE_SCENARIO.to_vec();
+        a.extend(["--families", family, "--json"]);
         a.extend_from_slice(extra);
         serde_json::from_str(&ok(&a)).unwrap()
     };
@@ -491,15 +486,8 @@ fn replay_eval_input_average_moves_only_logs_faster_than_the_window() {
 /// in the JSON (the opt-ins and the band that goes with them).
 #[test]
 fn replay_eval_says_what_the_online_estimator_ran_with() {
-    let base = [
-        "replay-eval",
-        "--scenarios",
-        "1",
-        "--seed",
-        "25",
-        "--families",
-        "lipo/lab-1hz/paper",
-    ];
+    let mut base = ONE_SCENARIO.to_vec();
+    base.extend(["--families", "lipo/lab-1hz/paper"]);
     let text = ok(&base);
     assert!(
         text.starts_with("online estimator: the defaults\n"),
