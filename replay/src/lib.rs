@@ -285,13 +285,13 @@ pub fn replay_flight_with_history(
         Err(why) => {
             let mut k = skip(why, history);
             // A flight too short to score is not traced either (its reason says so already).
-            let flew =
-                cutoff::flying_span(flight).is_some_and(|(a, b)| b - a >= cutoff::MIN_FLIGHT_S);
-            if config.trace_unscored && flew {
+            let span = cutoff::flying_span(flight).filter(|(a, b)| b - a >= cutoff::MIN_FLIGHT_S);
+            if let Some(span) = span.filter(|_| config.trace_unscored) {
                 k.trace = Some(trace_unscored(
                     flight,
                     config,
                     carried.as_ref().map(|c| c.1),
+                    span,
                 ));
             }
             return Err(k);
@@ -472,17 +472,13 @@ fn step(
 
 /// What the methods said over a flight that landed before the cut-off: flown as a scored
 /// flight is, with its phase schedule as the plan (the last leg "hover until empty") up to its
-/// last flying sample.
+/// last flying sample; `(takeoff_s, landed_s)`: its flying span ([`cutoff::flying_span`]).
 fn trace_unscored(
     flight: &Flight,
     config: &ReplayConfig<'_>,
     carried: Option<f64>,
+    (takeoff_s, landed_s): (f64, f64),
 ) -> Result<FlightTrace, String> {
-    let (takeoff_s, landed_s) =
-        cutoff::flying_span(flight).ok_or_else(|| "no sample in a flying phase".to_owned())?;
-    if landed_s - takeoff_s < cutoff::MIN_FLIGHT_S {
-        return Err(format!("flies only {:.1} s", landed_s - takeoff_s));
-    }
     let plan = methods::mission_plan_between(flight, takeoff_s, landed_s);
     let Methods {
         mut online,
