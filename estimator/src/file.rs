@@ -417,6 +417,17 @@ pub enum ParamsFileError {
         /// What the parser said.
         message: String,
     },
+    /// Not text (a flight log, an image, …): not a parameter file.
+    #[error(
+        "{}: not a hoverbench parameter file: byte {offset} is not UTF-8 text (a parameter file is TOML)",
+        path.display()
+    )]
+    NotText {
+        /// The file.
+        path: PathBuf,
+        /// 0-based offset of the first byte that is not UTF-8.
+        offset: usize,
+    },
     /// Not a hoverbench parameter file.
     #[error("{}not a hoverbench parameter file (schema = {found:?}, expected {SCHEMA:?})", path_prefix(path.as_deref()))]
     Schema {
@@ -578,9 +589,13 @@ impl ParamsFile {
 
     /// Reads and checks a `params.toml` file.
     pub fn load(path: &Path) -> Result<Self, ParamsFileError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ParamsFileError::Io {
+        let bytes = std::fs::read(path).map_err(|source| ParamsFileError::Io {
             path: path.to_owned(),
             source,
+        })?;
+        let text = String::from_utf8(bytes).map_err(|e| ParamsFileError::NotText {
+            path: path.to_owned(),
+            offset: e.utf8_error().valid_up_to(),
         })?;
         Self::parse(&text, Some(path))
     }
@@ -1071,6 +1086,23 @@ mod tests {
         let e = ParamsFile::from_toml_str(&t).unwrap_err().to_string();
         assert!(
             e.contains("vehicle.structure_mass_kg") && e.contains("line"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_file_that_is_not_text_is_named_not_a_parameter_file() {
+        let path = std::env::temp_dir().join(format!("hb-not-text-{}.ulg", std::process::id()));
+        std::fs::write(&path, b"ULog\x01\x12\x35\x01\x00\xff\xfe").unwrap();
+        let e = ParamsFile::load(&path).unwrap_err();
+        std::fs::remove_file(&path).unwrap();
+        assert!(
+            matches!(e, ParamsFileError::NotText { offset: 9, .. }),
+            "{e:?}"
+        );
+        assert!(
+            e.to_string()
+                .ends_with(": not a hoverbench parameter file: byte 9 is not UTF-8 text (a parameter file is TOML)"),
             "{e}"
         );
     }

@@ -155,6 +155,16 @@ pub enum ImportError {
         /// 1-based character column of the opening quote.
         column: usize,
     },
+    /// The file is a flight log, given where a table belongs.
+    #[error("{source_name}: {what}, not a CSV table{hint}")]
+    NotATable {
+        /// The file.
+        source_name: String,
+        /// What the file's first bytes say it is.
+        what: &'static str,
+        /// What reads it instead (starts with "; ").
+        hint: &'static str,
+    },
     /// A `valid` cell that is neither true nor false.
     #[error("{source_name}, line {line}: the valid column holds {value:?}; use true/false or 1/0")]
     BadFlag {
@@ -244,6 +254,20 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
         .collect()
 }
 
+/// What a file that is not text is, from its first bytes: a PX4 ULog or ArduPilot DataFlash
+/// flight log (by their magic numbers), with what reads it instead. (Any other binary file
+/// fails on its first control character or bad UTF-8, with the line and column.)
+fn binary_kind(bytes: &[u8]) -> Option<(&'static str, &'static str)> {
+    const FLIGHT_LOG: &str = "; flight logs are read by `hoverbench flights`, `gap` and `replay`";
+    if bytes.starts_with(b"ULog\x01\x12\x35") {
+        Some(("a PX4 ULog flight log", FLIGHT_LOG))
+    } else if bytes.starts_with(&[0xA3, 0x95]) {
+        Some(("an ArduPilot DataFlash flight log", FLIGHT_LOG))
+    } else {
+        None
+    }
+}
+
 impl Table {
     /// Reads and parses a CSV file.
     pub fn read(path: &Path) -> Result<(Self, Vec<u8>), ImportError> {
@@ -270,6 +294,13 @@ impl Table {
         columns: Option<&[String]>,
     ) -> Result<Self, ImportError> {
         let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+        if let Some((what, hint)) = binary_kind(bytes) {
+            return Err(ImportError::NotATable {
+                source_name: source_name.to_owned(),
+                what,
+                hint,
+            });
+        }
         let lossy = String::from_utf8_lossy(bytes);
         let first = lossy
             .lines()
@@ -721,6 +752,22 @@ fn check_quotes(bytes: &[u8], source_name: &str) -> Result<(), ImportError> {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn flight_logs_are_refused_by_what_they_are() {
+        let e = Table::parse(b"ULog\x01\x12\x35\x01\0", "f.ulg").unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("f.ulg: a PX4 ULog flight log, not a CSV table")
+        );
+        let e = Table::parse(b"\xA3\x95\x80rest", "log.bin").unwrap_err();
+        assert!(e.to_string().starts_with(
+            "log.bin: an ArduPilot DataFlash flight log, not a CSV table; flight logs are read"
+        ));
+        // Text that is not UTF-8 (a Latin-1 degree sign in a comment) is still a table.
+        let t = Table::parse(b"# rig at 20 \xB0C\nthrust_g,power_w\n10,1.5\n", "l.csv").unwrap();
+        assert_eq!(t.len(), 1);
+    }
 
     #[test]
     fn errors_name_line_and_column() {

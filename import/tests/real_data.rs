@@ -102,3 +102,29 @@ fn mit_gfx_sweep_without_header_or_voltage() {
     assert!(last.power_w.is_none(), "no voltage: power cannot be known");
     assert!(last.current_a.is_some());
 }
+
+/// A flight log handed to the stand importer is named for what it is (and where it is read),
+/// not reported as a CSV parse error at byte 0.
+#[test]
+fn flight_logs_are_named_not_parsed_as_tables() {
+    for (rel, what) in [
+        (
+            "flightlogs/ulog/pyulog_sample_log_small.ulg",
+            "a PX4 ULog flight log",
+        ),
+        (
+            "flightlogs/dataflash/dronekit_log171_copter33_curr.bin",
+            "an ArduPilot DataFlash flight log",
+        ),
+    ] {
+        let path = shared(rel);
+        let err = StandLog::read(&path, &StandOptions::default()).unwrap_err();
+        let text = err.to_string();
+        assert!(
+            matches!(err, import::ImportError::NotATable { .. }),
+            "{rel}: {text}"
+        );
+        assert!(text.contains(what), "{rel}: {text}");
+        assert!(text.contains("hoverbench flights"), "{rel}: {text}");
+    }
+}
