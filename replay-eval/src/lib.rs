@@ -29,6 +29,29 @@
 //! Sensor ablation: [`study_with`] and [`prepare_scenario_with`] fly the same worlds with
 //! calibrated sensors ([`flight_sim::SensorErrors`]: no per-flight scale or offset error on the
 //! voltage, the current or both), so a study tells how much of the error the sensors cause.
+//!
+//! Main types: [`StudyOptions`] (seeds, families, the estimator's configuration and the
+//! opt-ins), [`Study`] (every scenario's [`ScenarioOutcome`] and the [`Group`] roll-ups), and
+//! [`table`] / [`to_json`] (what `hoverbench replay-eval` prints). A study of four held-out
+//! scenarios with both opt-ins (`hoverbench replay-eval --scenarios 4 --seed 9100 --families
+//! heldout --input-average 1 --thrust-limit-end` from the CLI):
+//!
+//! ```no_run
+//! use estimator::online::OnlineConfig;
+//! use replay_eval::{StudyOptions, select_families, study, table};
+//!
+//! let opts = StudyOptions {
+//!     seeds: 9100..9104,
+//!     families: select_families("heldout")?,
+//!     threads: 2,
+//!     config: OnlineConfig::default().with_opt_ins(1.0, true),
+//!     pack_history: false,
+//!     voltage_only: false,
+//! };
+//! let result = study(&opts, &|| {});
+//! print!("{}", table(&result));
+//! # Ok::<(), replay_eval::EvalError>(())
+//! ```
 
 pub mod oracle;
 
