@@ -83,11 +83,18 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
             None => ignored.push(name.clone()),
         }
     }
+    // A thrust stand's export has a thrust column and no flight clock: say where it goes.
+    let stand = names.iter().any(|n| n.to_lowercase().contains("thrust"));
     let require = |k: usize| {
         index[k].ok_or_else(|| FlightLogError::MissingColumn {
             path: path.to_owned(),
             column: COLUMNS[k].to_owned(),
             available: names.join(","),
+            hint: if stand {
+                "; it looks like a thrust-stand log (a thrust column), which `hoverbench import`, `fit` and `rig-gap` read"
+            } else {
+                ""
+            },
         })
     };
     let (i_time, i_volt) = (require(0)?, require(1)?);
@@ -194,6 +201,16 @@ mod tests {
         let e = parse_str("time_s,current_a\n0,1\n").unwrap_err();
         assert!(
             matches!(&e, FlightLogError::MissingColumn { column, .. } if column == "voltage_v")
+        );
+        assert!(!e.to_string().contains("thrust-stand"), "{e}");
+        // An RCbenchmark export handed over as a flight: named for what it looks like.
+        let e = parse_str("Time (s),ESC signal (µs),Thrust (kgf),Voltage (V)\n0,1000,0,12\n")
+            .unwrap_err();
+        assert!(
+            e.to_string().ends_with(
+                "; it looks like a thrust-stand log (a thrust column), which `hoverbench import`, `fit` and `rig-gap` read"
+            ),
+            "{e}"
         );
         let e = parse_str("time_s,voltage_v\n0,12\n1,12,3\n").unwrap_err();
         assert!(matches!(&e, FlightLogError::Csv { line: 3, .. }), "{e}");

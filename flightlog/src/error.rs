@@ -29,7 +29,7 @@ pub enum FlightLogError {
         message: String,
     },
     /// A required column is not in the header.
-    #[error("{}: no column {column:?}; the header has: {available}", path.display())]
+    #[error("{}: no column {column:?}; the header has: {available}{hint}", path.display())]
     MissingColumn {
         /// The file.
         path: PathBuf,
@@ -37,6 +37,8 @@ pub enum FlightLogError {
         column: String,
         /// The columns present, comma-separated.
         available: String,
+        /// What the file looks like instead, when its header says (starts with "; "; else empty).
+        hint: &'static str,
     },
     /// The same column twice in a header.
     #[error("{}, line {line}: column {column:?} appears twice in the header", path.display())]
