@@ -3,12 +3,13 @@
 //!
 //! A faded pack empties sooner than its `[battery]` section says, and in flight the voltage
 //! shows it only late: at half the flight a 15 % fade moves the open-circuit voltage by a few
-//! hundredths of a volt per cell, as much as one pack's curve differs from another's (README,
-//! "How long can it still fly?"). The online estimator lets its curve offset absorb such a
-//! slow fall (it cannot tell a fade from the curve's shape in flight), and so its own capacity
-//! hardly moves. A whole flight, looked at after landing, tells them apart: over a deep
-//! discharge a fade makes the offset grow with the charge drawn, by the curve's slope times
-//! the charge the model did not expect to be gone. [`capacity_reading`] reads that back:
+//! hundredths of a volt per cell, as much as one pack's curve differs from another's
+//! (docs/evidence/online-estimator.md, "Why the remaining misses resist the filter"). The
+//! online estimator lets its curve offset absorb such a slow fall (it cannot tell a fade from
+//! the curve's shape in flight), and so its own capacity hardly moves. A whole flight, looked
+//! at after landing, tells them apart: over a deep discharge a fade makes the offset grow with
+//! the charge drawn, by the curve's slope times the charge the model did not expect to be
+//! gone. [`capacity_reading`] reads that back:
 //!
 //! `C = Q / (soc_start − soc_end)`, with
 //! `soc_end = curve⁻¹(curve(soc_filter_end) + (offset_end − offset_settled) / cells)`
@@ -38,8 +39,8 @@
 //! nothing here runs in flight.
 //!
 //! Measured on `replay-eval`'s worlds it helps faded packs most and moves some packs with an
-//! extra resistance or a cold start the wrong way, so it is off by default (README, "A pack's
-//! history").
+//! extra resistance or a cold start the wrong way, so it is off by default
+//! (docs/evidence/online-estimator.md, "A pack's history").
 
 use std::collections::BTreeMap;
 

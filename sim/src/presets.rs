@@ -199,9 +199,10 @@ pub const PAPER_DIAMETER_M: f64 = 0.200;
 ///   gives 259 g at 12.6 V.
 /// * Supply, sensors and firmware limits as in [`paper`].
 ///
-/// How close it gets (README, `cargo run -p sim --example physical_paper`, and a `characterise`
-/// session with `--preset paper-physical`): it draws about 40 % less power than the
-/// reconstructed Fig. 3 curve and, at 9.0 V, reaches 134 g instead of the derived 150 g. Its
+/// How close it gets (docs/evidence/rig-gap.md, "`sim`'s presets: physical or calibrated";
+/// `cargo run -p sim --example physical_paper`, and a `characterise` session with `--preset
+/// paper-physical`): it draws about 40 % less power than the reconstructed Fig. 3 curve and,
+/// at 9.0 V, reaches 134 g instead of the derived 150 g. Its
 /// power–thrust elasticity is ≈ 1.3 where the paper's optimum needs 2.22, so it cannot land on
 /// the paper's optima; `tests/presets.rs` checks what must hold for it instead.
 pub fn paper_physical() -> Preset {

@@ -42,8 +42,9 @@ pub struct Args {
     /// parameters' [thrust_limit], with 3 % of headroom for the controller), on flights that
     /// log their current; the one-sigma band is then sized for it (`end_soc_sigma` 0.06, 0.04
     /// with `--input-average`). Off by default: on simulated held-out flights it lowers the
-    /// median error at half the flight but makes some flights worse (README, "How long can it
-    /// still fly?").
+    /// median error at half the flight but makes some flights worse
+    /// (docs/evidence/online-estimator.md, "The thrust-limit end on flights with a current, and
+    /// both opt-ins together").
     #[arg(long)]
     thrust_limit_end: bool,
     /// Average the samples over windows of this many seconds before the online estimator takes
@@ -52,7 +53,7 @@ pub struct Args {
     /// taken sample by sample. The one-sigma band is then sized for averaged samples
     /// (`end_soc_sigma` 0.06 instead of 0.08; 0.04 with `--thrust-limit-end`). Off (0) by default; 1 s lowered the median
     /// error at half the flight on all nine simulated held-out sets, with some flights worse
-    /// (README, "How long can it still fly?").
+    /// (docs/evidence/online-estimator.md, "Averaging the samples").
     #[arg(long, value_name = "S", default_value_t = 0.0)]
     input_average: f64,
     /// Carry each pack's usable capacity from one flight to its next (by `battery_id`): a

@@ -221,11 +221,12 @@ pub struct OnlineConfig {
     /// flight tells it from a capacity or a power draw, so the band carries it (a consider
     /// parameter: a pair of forward integrations with the count and the learned power moved by
     /// one sigma). Default 0 (off, two forward integrations saved): on `replay-eval`'s sets
-    /// [`Self::end_soc_sigma`] already covers what it adds (README, "How long can it still
-    /// fly?"). For a band that names it: 0.03, an uncalibrated hobby power module — shunt
-    /// tolerance and the ADC reference (an uncalibrated shunt wattmeter's maximum relative
-    /// error is about 3 %, DFRobot SEN0291's notes), or a Hall sensor's sensitivity trim; a
-    /// sensor calibrated against a meter: 0.002–0.005. Only used while the current is logged.
+    /// [`Self::end_soc_sigma`] already covers what it adds (docs/evidence/online-estimator.md,
+    /// "The band's final default"). For a band that names it: 0.03, an uncalibrated hobby
+    /// power module — shunt tolerance and the ADC reference (an uncalibrated shunt
+    /// wattmeter's maximum relative error is about 3 %, DFRobot SEN0291's notes), or a Hall
+    /// sensor's sensitivity trim; a sensor calibrated against a meter: 0.002–0.005. Only used
+    /// while the current is logged.
     pub current_scale_sigma: f64,
     /// Zero-current offset of the current sensor (one sigma), A: counted over the time the
     /// current was logged, and times the voltage in the measured power. Default 0 (off, as
@@ -268,7 +269,8 @@ pub struct OnlineConfig {
     /// better, 14 worse by more than 0.25 pp), and on the held-out sets 9100, 9800 and 9900 (36
     /// scenarios each) from 6.0, 4.05 and 5.85 % to 5.35, 3.9 and 5.8 %, but it makes 20–24
     /// held-out flights per set worse by more than 0.25 pp and the median at 25 % of the flight
-    /// worse on three of four sets (README, "How long can it still fly?"). Without a
+    /// worse on three of four sets (docs/evidence/online-estimator.md, "The band and the
+    /// thrust-limit end"). Without a
     /// `[thrust_limit]` it changes nothing, nor without a logged current (since session 15:
     /// the extra power the voltage alone teaches mixes the pack's sag with the robot's draw,
     /// and the end it gave made voltage-only flights worse). [`OnlineConfig::with_opt_ins`]
@@ -305,7 +307,7 @@ pub struct OnlineConfig {
     /// the defaults). With the current-sensor and fade terms on (0.03, 0.2 A, 0.058) 0.04 gives
     /// the same coverage there, for six more forward integrations per prediction and no
     /// coverage gained on held-out sets; without this term the held-out families are covered
-    /// less than with it (README, "How long can it still fly?").
+    /// less than with it (docs/evidence/online-estimator.md, "The band's final default").
     pub end_soc_sigma: f64,
     /// The pack was charged full before the first sample: when above 0, the state of charge
     /// read from the first voltage is fused with "full" (1, with this standard deviation: how
@@ -328,9 +330,9 @@ pub struct OnlineConfig {
     /// interval) would fall outside it, so logs slower than the window are taken sample by
     /// sample; a change of phase starts a new window (the samples of the unfinished one are
     /// dropped). Between windows [`OnlineEstimator::update`] returns the last estimate.
-    /// Default 0 (off); 1 s halves the error on `replay-eval`'s 10 Hz logs (README, "How long
-    /// can it still fly?"). [`OnlineConfig::with_opt_ins`] sets it with the band that goes
-    /// with it.
+    /// Default 0 (off); 1 s halves the error on `replay-eval`'s 10 Hz logs
+    /// (docs/evidence/online-estimator.md, "Averaging the samples").
+    /// [`OnlineConfig::with_opt_ins`] sets it with the band that goes with it.
     pub input_average_s: f64,
 }
 
@@ -342,7 +344,8 @@ pub struct OnlineConfig {
 /// `replay-eval`'s held-out sets). Each value here is the one that brings the tuning families
 /// (seeds 0–23 and 24–71) back to the coverage the defaults give there (83 % and 73 %): the
 /// windows 0.06 (80 / 73 %), the end 0.06 (82 / 73 %), both 0.04 (80 / 72 %); chosen there,
-/// then run on the held-out sets (README, "How long can it still fly?").
+/// then run on the held-out sets (docs/evidence/online-estimator.md, "The thrust-limit end on
+/// flights with a current, and both opt-ins together").
 pub const fn opt_in_end_soc_sigma(averaged: bool, thrust_limit_end: bool) -> Option<f64> {
     match (averaged, thrust_limit_end) {
         (false, false) => None,
