@@ -286,8 +286,9 @@ impl Table {
         Self::parse_with(bytes, source_name, None)
     }
 
-    /// Like [`Table::parse`], and also reads whitespace-separated files and, given `columns`,
-    /// files without a header row. A file whose first row is all numbers needs `columns`.
+    /// Like [`Table::parse`], and also reads whitespace-separated files, semicolon-separated
+    /// ones with decimal commas (a spreadsheet's CSV in a comma-decimal locale) and, given
+    /// `columns`, files without a header row. A file whose first row is all numbers needs `columns`.
     pub fn parse_with(
         bytes: &[u8],
         source_name: &str,
@@ -302,12 +303,25 @@ impl Table {
             });
         }
         let lossy = String::from_utf8_lossy(bytes);
-        let first = lossy
-            .lines()
-            .map(str::trim)
-            .find(|l| !l.is_empty() && !l.starts_with('#'))
-            .unwrap_or_default();
-        let whitespace = !first.contains(',') && first.split_whitespace().count() > 1;
+        let first_row = |text: &str| {
+            text.lines()
+                .map(str::trim)
+                .find(|l| !l.is_empty() && !l.starts_with('#'))
+                .unwrap_or_default()
+                .to_owned()
+        };
+        // A spreadsheet saved in a locale whose decimal mark is the comma separates fields by
+        // semicolons: such a file becomes comma-separated, line for line, its decimal commas
+        // decimal points.
+        let first = first_row(&lossy);
+        let semicolon = first.contains(';') && !first.contains(',');
+        let lossy = if semicolon {
+            std::borrow::Cow::Owned(semicolons_to_commas(&lossy))
+        } else {
+            lossy
+        };
+        let first = first_row(&lossy);
+        let whitespace = !semicolon && !first.contains(',') && first.split_whitespace().count() > 1;
         let numeric_first = !first.is_empty()
             && first
                 .split(|c: char| c == ',' || c.is_whitespace())
@@ -335,6 +349,8 @@ impl Table {
                 .collect::<Vec<_>>()
                 .join("\n");
             normalised.as_bytes()
+        } else if semicolon {
+            lossy.as_bytes()
         } else {
             bytes
         };
@@ -703,6 +719,64 @@ fn check_header(header: &[String], line: u64, source_name: &str) -> Result<(), I
 
 /// Refuses text whose last quoted field is never closed (the CSV reader would otherwise take the
 /// rest of the file as one cell). `#` comment lines are not CSV and are skipped.
+/// A semicolon-separated text as comma-separated CSV, line for line: `#` comment lines as they
+/// are; in every other line each field (double quotes kept together, a `;` inside them is
+/// text) has a decimal comma (`12,5`, one comma and no point) turned into a point, and a field
+/// that still holds a comma or a quote is quoted.
+fn semicolons_to_commas(text: &str) -> String {
+    let mut out = String::with_capacity(text.len() + 16);
+    for (i, line) in text.split('\n').enumerate() {
+        if i > 0 {
+            out.push('\n');
+        }
+        let line = line.strip_suffix('\r').unwrap_or(line);
+        if line.trim_start().starts_with('#') {
+            out.push_str(line);
+            continue;
+        }
+        let mut fields = Vec::new();
+        let mut field = String::new();
+        let mut quoted = false;
+        let mut chars = line.chars().peekable();
+        while let Some(c) = chars.next() {
+            match c {
+                '"' if quoted && chars.peek() == Some(&'"') => {
+                    field.push('"');
+                    chars.next();
+                }
+                '"' => quoted = !quoted,
+                ';' if !quoted => fields.push(std::mem::take(&mut field)),
+                c => field.push(c),
+            }
+        }
+        if quoted {
+            // An unclosed quote: left as it was, for the quote check to name.
+            out.push_str(line);
+            continue;
+        }
+        fields.push(field);
+        for (j, f) in fields.iter().enumerate() {
+            if j > 0 {
+                out.push(',');
+            }
+            let t = f.trim();
+            let decimal = t.matches(',').count() == 1
+                && !t.contains('.')
+                && t.replace(',', ".").parse::<f64>().is_ok();
+            if decimal {
+                out.push_str(&t.replace(',', "."));
+            } else if t.contains([',', '"']) {
+                out.push('"');
+                out.push_str(&t.replace('"', "\"\""));
+                out.push('"');
+            } else {
+                out.push_str(t);
+            }
+        }
+    }
+    out
+}
+
 fn check_quotes(bytes: &[u8], source_name: &str) -> Result<(), ImportError> {
     let mut in_quote: Option<(u64, usize)> = None;
     let mut line = 1u64;
@@ -752,6 +826,39 @@ fn check_quotes(bytes: &[u8], source_name: &str) -> Result<(), ImportError> {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn semicolon_files_with_decimal_commas_read_as_their_numbers() {
+        let text = "# Stand export, de-DE\r\nZeit (s);Schub [N];Spannung (V);Strom (A);Notiz\r\n\
+                    0;0,5;12,1;1,25;\"a; b\"\r\n1;1,5;12;3,4;\"x,y\"\r\n2;-2,5e-1;11,9;5;\r\n";
+        let t = Table::parse(text.as_bytes(), "de.csv").unwrap();
+        assert_eq!(
+            t.header(),
+            [
+                "Zeit (s)",
+                "Schub [N]",
+                "Spannung (V)",
+                "Strom (A)",
+                "Notiz"
+            ]
+        );
+        assert_eq!(t.column("Schub [N]").unwrap(), [0.5, 1.5, -0.25]);
+        assert_eq!(t.column("Spannung (V)").unwrap(), [12.1, 12.0, 11.9]);
+        assert_eq!(t.cell_text(0, "Notiz"), "a; b");
+        assert_eq!(t.cell_text(1, "Notiz"), "x,y");
+        assert_eq!(t.line(2), 5);
+        let e = t
+            .xy("Zeit (s)", &YSource::Column("Notiz".into()))
+            .unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("de.csv, line 3, column \"Notiz\""),
+            "{e}"
+        );
+        // A thousands separator with a decimal comma is not guessed at.
+        let t = Table::parse(b"a;b\n1.234,5;2\n", "t.csv").unwrap();
+        assert!(t.column("a").is_err());
+    }
 
     #[test]
     fn flight_logs_are_refused_by_what_they_are() {
@@ -894,6 +1001,23 @@ mod tests {
             }
             let t = Table::parse(s.as_bytes(), "p").unwrap();
             prop_assert_eq!(t.column("y").unwrap(), v);
+        }
+
+        #[test]
+        fn decimal_commas_read_as_the_same_numbers(
+            v in proptest::collection::vec(-1e6f64..1e6, 1..20),
+            semicolon_text in "[a-z ;,]{0,8}",
+        ) {
+            // What a spreadsheet in a comma-decimal locale writes: `;` between fields, `,` for
+            // the decimal mark, text with either quoted.
+            let quoted = format!("\"{semicolon_text}\"");
+            let mut s = String::from("i;y (V);note\n");
+            for (i, x) in v.iter().enumerate() {
+                s.push_str(&format!("{i};{};{quoted}\n", format!("{x}").replace('.', ",")));
+            }
+            let t = Table::parse(s.as_bytes(), "p").unwrap();
+            prop_assert_eq!(t.column("y (V)").unwrap(), v);
+            prop_assert_eq!(t.cell_text(0, "note"), semicolon_text.trim());
         }
     }
 }

@@ -113,8 +113,8 @@ impl ColumnMap {
         };
         let map = Self {
             thrust: find(table, &["thrust_g", "thrust", "force"]),
-            voltage: find(table, &["voltage_v", "voltage", "volts"]),
-            current: find(table, &["current_a", "current", "amps"]),
+            voltage: find(table, &["voltage_v", "voltage", "volts", "volt"]),
+            current: find(table, &["current_a", "current", "amps", "amp"]),
             power: find(
                 table,
                 &["power_w", "Electrical Power", "electrical_power", "power"],

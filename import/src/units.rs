@@ -104,7 +104,7 @@ pub fn factor(quantity: Quantity, unit: &str) -> Option<f64> {
         Quantity::Time => match l.as_str() {
             "s" | "sec" => 1.0,
             "ms" => 1e-3,
-            "us" | "µs" => 1e-6,
+            "us" | "µs" | "μs" => 1e-6,
             "min" => 60.0,
             _ => return None,
         },
