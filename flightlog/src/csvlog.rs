@@ -24,7 +24,15 @@ pub const COLUMNS: [&str; 6] = [
 /// Parses a flight CSV; `path` names it in errors.
 pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError> {
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    // A spreadsheet saved where the decimal mark is a comma separates fields by semicolons
+    // (told by the header: semicolons and no comma); its numbers then read `12,5` as 12.5.
+    let semicolon = bytes
+        .split(|&b| b == b'\n')
+        .map(<[u8]>::trim_ascii)
+        .find(|l| !l.is_empty() && !l.starts_with(b"#"))
+        .is_some_and(|h| h.contains(&b';') && !h.contains(&b','));
     let mut reader = csv::ReaderBuilder::new()
+        .delimiter(if semicolon { b';' } else { b',' })
         .has_headers(false)
         .comment(Some(b'#'))
         .trim(csv::Trim::All)
@@ -123,11 +131,16 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
             expected: expected.to_owned(),
         };
         let number = |i: usize| -> Result<f64, FlightLogError> {
-            cell(i)
-                .parse::<f64>()
-                .ok()
-                .filter(|v| v.is_finite())
-                .ok_or_else(|| bad(i, "a finite number"))
+            let c = cell(i);
+            let decimal_comma = semicolon && c.matches(',').count() == 1 && !c.contains('.');
+            if decimal_comma {
+                c.replace(',', ".").parse::<f64>()
+            } else {
+                c.parse::<f64>()
+            }
+            .ok()
+            .filter(|v| v.is_finite())
+            .ok_or_else(|| bad(i, "a finite number"))
         };
         samples.time_s.push(number(i_time)?);
         let v = number(i_volt)?;
@@ -210,6 +223,18 @@ mod tests {
             e.to_string().ends_with(
                 "; it looks like a thrust-stand log (a thrust column), which `hoverbench import`, `fit` and `rig-gap` read"
             ),
+            "{e}"
+        );
+        let e = parse_str("time_s,voltage_v\n0,12\n1,12,3\n").unwrap_err();
+        assert!(matches!(&e, FlightLogError::Csv { line: 3, .. }), "{e}");
+        // Semicolons between fields and decimal commas: read as numbers; an error still
+        // names its line and column.
+        let d = parse_str("# de-DE\ntime_s;voltage_v;current_a\n0;12,5;1,25\n1;12;-0,5\n").unwrap();
+        assert_eq!(d.samples.voltage_v, [12.5, 12.0]);
+        assert_eq!(d.samples.current_a.unwrap(), [1.25, -0.5]);
+        let e = parse_str("time_s;voltage_v\n0;12,5\n1;1.234,5\n").unwrap_err();
+        assert!(
+            matches!(&e, FlightLogError::BadValue { line: 3, column, .. } if column == "voltage_v"),
             "{e}"
         );
         let e = parse_str("time_s,voltage_v\n0,12\n1,12,3\n").unwrap_err();
