@@ -640,7 +640,9 @@ fn replay_scenario_by(
 }
 
 /// The oracle budget on a study's seeds: every scenario is prepared once per sensor choice the
-/// `oracles` need and replayed with each; one [`Study`] per oracle, in the order given.
+/// `oracles` need and replayed with each (without its current column with
+/// [`StudyOptions::voltage_only`]; the pack history is not carried); one [`Study`] per oracle,
+/// in the order given.
 pub fn study_oracles(
     opts: &StudyOptions,
     oracles: &[Oracle],
@@ -665,7 +667,13 @@ pub fn study_oracles(
                             if mine.is_empty() {
                                 continue;
                             }
-                            let prepared = prepare_scenario_with(&fam, s, sensors);
+                            let prepared = prepare_scenario_with(&fam, s, sensors).map(|p| {
+                                if opts.voltage_only {
+                                    p.without_current()
+                                } else {
+                                    p
+                                }
+                            });
                             for k in mine {
                                 let r = match &prepared {
                                     Ok(p) => {

@@ -76,6 +76,32 @@ fn the_oracle_switches_are_inert_when_off() {
     }
 }
 
+/// The voltage-only ablation reaches the oracles too: with every switch off they replay the
+/// flights without their current exactly as the study does.
+#[test]
+fn the_oracles_replay_without_the_current_when_asked() {
+    let o = StudyOptions {
+        voltage_only: true,
+        ..opts("nmc/fc-10hz/paper", 4..5)
+    };
+    let none = study_oracles(&o, &[Oracle::NONE], &|| {}).remove(0);
+    let plain = study_with(&o, SensorErrors::Drawn, &|| {});
+    assert!(plain.scenarios.iter().all(|s| s.2.is_ok()));
+    assert_eq!(
+        format!("{:?}", none.scenarios),
+        format!("{:?}", plain.scenarios)
+    );
+    let with_current = study_with(
+        &StudyOptions {
+            voltage_only: false,
+            ..opts("nmc/fc-10hz/paper", 4..5)
+        },
+        SensorErrors::Drawn,
+        &|| {},
+    );
+    assert_ne!(err50(&none), err50(&with_current));
+}
+
 /// Everything handed (the pack's curve, capacity, resistance and start, the power above the
 /// model, calibrated sensors) on a calm world — a lab logger at 1 Hz, LiPo, nominal robot —
 /// leaves only the filter's structure (one RC pair for two, no hysteresis or temperature, a
