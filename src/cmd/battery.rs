@@ -47,7 +47,7 @@ pub struct Args {
 #[derive(Debug, clap::Subcommand)]
 enum Sub {
     /// Learn the pack's open-circuit curve, series resistance and RC pair from flights of one
-    /// pack type and write them into the parameter file's [battery] section (the file is
+    /// pack type and write them into the parameter file's `[battery]` section (the file is
     /// rewritten atomically; its other sections are kept).
     Learn(LearnArgs),
 }

@@ -20,7 +20,7 @@ use reports::replay::{ReplayErrorFigure, ReplayFlightFigure, ReplayMethodSeries}
 /// then it exits with 2 and the most common reason.
 #[derive(Debug, clap::Args)]
 pub struct Args {
-    /// The parameter file (params.toml: rig curve, and a [battery] section for the online
+    /// The parameter file (params.toml: rig curve, and a `[battery]` section for the online
     /// estimator).
     #[arg(long, value_name = "FILE")]
     params: PathBuf,
@@ -39,7 +39,7 @@ pub struct Args {
     #[arg(short = 'o', long, value_name = "DIR")]
     out: Option<PathBuf>,
     /// End the online estimator's predictions also where the rotors run out of thrust (the
-    /// parameters' [thrust_limit], with 3 % of headroom for the controller), on flights that
+    /// parameters' `[thrust_limit]`, with 3 % of headroom for the controller), on flights that
     /// log their current; the one-sigma band is then sized for it (`end_soc_sigma` 0.06, 0.04
     /// with `--input-average`). Off by default: on simulated held-out flights it lowers the
     /// median error at half the flight but makes some flights worse

@@ -58,7 +58,7 @@ pub struct Args {
     /// Write the step log here.
     #[arg(short, long, value_name = "FILE")]
     output: PathBuf,
-    /// Write the raw samples here [default: beside the log, `<name>-samples.csv`].
+    /// Write the raw samples here (default: beside the log, `<name>-samples.csv`).
     #[arg(long, value_name = "FILE")]
     samples: Option<PathBuf>,
     /// Continue an interrupted sweep from its last complete step.
