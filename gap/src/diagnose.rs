@@ -149,9 +149,13 @@ pub struct FlightResiduals {
     /// Mean voltage residual by phase.
     pub voltage_by_phase_v: Vec<PhaseVoltage>,
     /// Measured over predicted battery power in the late half of the flight minus the same
-    /// ratio in the early half (flights with current, whole-flight window): a drift of the
-    /// power within the flight that the model does not follow (a per-flight current-sensor
-    /// scale cancels in it).
+    /// ratio in the early half, within each phase flown in both halves and averaged over them
+    /// (weighted by `1/(1/n_early + 1/n_late)` samples; flights with current, whole-flight
+    /// window; each phase also weighted by its predicted power squared, as a ratio's noise goes
+    /// as the current sensor's over the current): a drift of the power within the flight that
+    /// the model does not follow (a per-flight current-sensor scale cancels in it, and so does
+    /// the model's error on one phase against another when a flight's halves fly different
+    /// phases).
     pub power_drift: Option<f64>,
     /// χ² contribution and observation count.
     pub chi2: f64,
@@ -289,9 +293,10 @@ fn residuals_with(
     let mut by_phase_len = 0;
     // Per phase of `Phase::ALL`: measured and predicted power sums, count.
     let mut power_sums = [(-0.0, -0.0, 0usize); Phase::ALL.len()];
-    // Measured and predicted power sums and counts in the early and the late half of the log.
+    // Measured and predicted power sums and counts per phase of `Phase::ALL` in the early and
+    // the late half of the log.
     let half_s = f.time_s[0] + 0.5 * f.duration_s();
-    let mut halves = [(0.0, 0.0, 0usize); 2];
+    let mut halves = [[(0.0, 0.0, 0usize); Phase::ALL.len()]; 2];
     let cur = f.current_a.as_ref();
     for (k, &i) in pred.index.iter().enumerate() {
         if !window.contains(f, i) {
@@ -321,15 +326,29 @@ fn residuals_with(
             slot.0 += f.voltage_v[i] * cur[i];
             slot.1 += pred.power_w[k];
             slot.2 += 1;
-            let h = &mut halves[usize::from(f.time_s[i] >= half_s)];
+            let h = &mut halves[usize::from(f.time_s[i] >= half_s)][phase_slot(phase)];
             h.0 += f.voltage_v[i] * cur[i];
             h.1 += pred.power_w[k];
             h.2 += 1;
         }
     }
     let ratio = |(meas, predp, n): (f64, f64, usize)| (n >= 3 && predp > 0.0).then(|| meas / predp);
-    let power_drift = match (window, ratio(halves[0]), ratio(halves[1])) {
-        (Window::All, Some(early), Some(late)) => Some(late - early),
+    // The drift within each phase flown in both halves, weighted by the samples it rests on
+    // (1/(1/n_early + 1/n_late)): a flight that hovers early and perches late does not read
+    // the model's error on one phase against the other as a drift.
+    let mut drift = (0.0, 0.0);
+    for (early, late) in halves[0].iter().zip(&halves[1]) {
+        if let (Some(e), Some(l)) = (ratio(*early), ratio(*late)) {
+            // A ratio's noise goes as the current sensor's over the current: a low-power
+            // phase (perched, on the ground) weighs by its power squared.
+            let p = (early.1 + late.1) / (early.2 + late.2) as f64;
+            let w = p * p / (1.0 / early.2 as f64 + 1.0 / late.2 as f64);
+            drift.0 += w * (l - e);
+            drift.1 += w;
+        }
+    }
+    let power_drift = match window {
+        Window::All if drift.1 > 0.0 => Some(drift.0 / drift.1),
         _ => None,
     };
     // A flight that the model empties first (one that landed with charge left, or any flight
@@ -2033,6 +2052,64 @@ mod tests {
             index,
             endurance_s,
         }
+    }
+
+    /// The power drift is read within each phase: a flight that hovers and perches in turn,
+    /// more of its first half hovering, whose model is 10 % low on the hover and right on the
+    /// perch, has no drift (all samples pooled it would read one); one whose hover power rises
+    /// by 6 % in the second half has +6.6 % (1.1 → 1.166; the perch, drawing a twentieth of
+    /// the hover's power and steady, weighs next to nothing).
+    #[test]
+    fn the_power_drift_is_read_within_each_phase() {
+        let mut f = cutoff_flight();
+        let (hover_w, perched_w) = (160.0, 8.0);
+        // At 1 Hz: hover 0–249 s, perched 250–349 s, hover 350–449 s, perched 450–600 s.
+        let hovering = |i: usize| i < 250 || (350..450).contains(&i);
+        f.phase = (0..601)
+            .map(|i| {
+                if hovering(i) {
+                    Phase::Hover
+                } else {
+                    Phase::Attached
+                }
+            })
+            .collect();
+        let index: Vec<usize> = (0..601).collect();
+        let mut pred = prediction(&f, index.clone(), 0.0, 600.0);
+        pred.power_w = index
+            .iter()
+            .map(|&i| if hovering(i) { hover_w } else { perched_w })
+            .collect();
+        let measured = |drift: f64| -> Vec<f64> {
+            index
+                .iter()
+                .map(|&i| {
+                    let p = if !hovering(i) {
+                        perched_w
+                    } else if i >= 300 {
+                        1.1 * hover_w * (1.0 + drift)
+                    } else {
+                        1.1 * hover_w
+                    };
+                    p / f.voltage_v[i]
+                })
+                .collect()
+        };
+        let opts = DiagnoseOptions::default();
+        f.current_a = Some(measured(0.0));
+        let steady = residuals(&f, &pred, &opts, Window::All);
+        assert!(
+            steady.power_drift.unwrap().abs() < 1e-9,
+            "{:?}",
+            steady.power_drift
+        );
+        f.current_a = Some(measured(0.06));
+        let d = residuals(&f, &pred, &opts, Window::All)
+            .power_drift
+            .unwrap();
+        assert!((d - 0.066).abs() < 1e-3, "{d}");
+        // Not on a window: the drift needs both halves of the whole flight.
+        assert_eq!(residuals(&f, &pred, &opts, Window::Early).power_drift, None);
     }
 
     /// The bias `check_stability` had: in the early half (no endurance term) a prediction

@@ -5,7 +5,8 @@
 //! large; what the selected effects must explain is what the flights *share*. So after the
 //! selected effects every flight gives one number per quantity — its endurance error, its
 //! energy error summed over phases, the drift of its measured-over-predicted power from the
-//! early to the late half of the flight, and (for flights without current) its mean voltage
+//! early to the late half of the flight (within each phase, so that a flight whose halves fly
+//! different phases does not read the model's error on one phase against another), and (for flights without current) its mean voltage
 //! residual in each third of the discharge — and the test asks whether the mean over the
 //! held-out flights, or over the training flights, differs from zero by more than the flights'
 //! own scatter allows:
@@ -53,7 +54,8 @@ pub enum Quantity {
     /// with current).
     Energy,
     /// Measured over predicted power in the late half of the flight minus in the early half,
-    /// % (flights with current): a power that drifts within the flight.
+    /// within each phase flown in both (weighted by its samples and its power squared), %
+    /// (flights with current): a power that drifts within the flight.
     PowerDrift,
     /// Mean voltage residual (measured − predicted) in the early third of the discharge, V.
     VoltageEarly,
@@ -88,7 +90,7 @@ impl Quantity {
             Quantity::Endurance => "endurance (predicted − measured)",
             Quantity::Energy => "energy summed over phases (predicted − measured)",
             Quantity::PowerDrift => {
-                "measured/predicted power, late half of the flight minus early half"
+                "measured/predicted power within each phase, late half of the flight minus early half"
             }
             Quantity::VoltageEarly => "voltage in the early third (measured − predicted)",
             Quantity::VoltageMiddle => "voltage in the middle third (measured − predicted)",
