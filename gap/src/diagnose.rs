@@ -27,6 +27,12 @@ pub struct NoiseFloors {
     pub voltage_v: f64,
     /// Energy of a phase, as a fraction of the flight's energy.
     pub power_fraction: f64,
+    /// Drift of the measured-over-predicted power within a phase, from the early to the late
+    /// half of a flight, as a fraction: the smallest shared drift the `systematic` rule flags.
+    /// Below the energy's floor, as the current sensor's per-flight scale and offset, which
+    /// the energy carries, cancel in a drift (1 %: on the tuning families 0.5 and 1 % flag
+    /// the same runs, the energy's 1.5 % one fewer).
+    pub power_drift_fraction: f64,
     /// Endurance, as a fraction.
     pub endurance_fraction: f64,
 }
@@ -109,6 +115,7 @@ impl Default for DiagnoseOptions {
             floors: NoiseFloors {
                 voltage_v: 0.04,
                 power_fraction: 0.015,
+                power_drift_fraction: 0.01,
                 endurance_fraction: 0.01,
             },
             thresholds: Thresholds {
@@ -1803,6 +1810,7 @@ pub fn diagnose_with<C: PowerCurve>(
         &CheckOptions {
             endurance_pct: opts.floors.endurance_fraction * 100.0,
             power_pct: opts.floors.power_fraction * 100.0,
+            drift_pct: opts.floors.power_drift_fraction * 100.0,
             voltage_v: opts.floors.voltage_v,
             t_max: th.systematic_t,
             gross_miss_fraction: th.gross_miss_fraction,

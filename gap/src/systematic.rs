@@ -329,8 +329,10 @@ impl SystematicCheck {
 pub struct CheckOptions {
     /// Endurance floor, %.
     pub endurance_pct: f64,
-    /// Energy and power-drift floor, %.
+    /// Energy floor, %.
     pub power_pct: f64,
+    /// Power-drift floor, %.
+    pub drift_pct: f64,
     /// Voltage floor, V.
     pub voltage_v: f64,
     /// Largest |t| of a shared mean that is still scatter.
@@ -361,7 +363,8 @@ pub fn check(
     for q in Quantity::ALL {
         let floor = match q {
             Quantity::Endurance => o.endurance_pct,
-            Quantity::Energy | Quantity::PowerDrift => o.power_pct,
+            Quantity::Energy => o.power_pct,
+            Quantity::PowerDrift => o.drift_pct,
             _ => o.voltage_v,
         };
         if q.unit() == "V" && has_current {
@@ -505,6 +508,7 @@ mod tests {
         CheckOptions {
             endurance_pct: 1.0,
             power_pct: 1.5,
+            drift_pct: 1.0,
             voltage_v: 0.04,
             t_max: 3.5,
             gross_miss_fraction: 0.5,
@@ -560,6 +564,42 @@ mod tests {
             c.reasons
                 .iter()
                 .any(|r| r.contains("every flight's measured/predicted power"))
+        );
+    }
+
+    /// The drift has its own floor, below the energy's: a precise 1.2 % drift shared by every
+    /// flight is flagged, a precise 1.2 % energy shift is not.
+    #[test]
+    fn a_precise_drift_above_its_floor_is_flagged_where_an_energy_shift_is_not() {
+        let mut rng = ChaCha8Rng::seed_from_u64(23);
+        let precise = |rng: &mut ChaCha8Rng, energy: f64, drift: f64| {
+            (0..12)
+                .map(|k| {
+                    flight(
+                        &format!("f{k}"),
+                        0.01 * normal(rng),
+                        energy + 0.002 * normal(rng),
+                        drift + 0.002 * normal(rng),
+                    )
+                })
+                .collect::<Vec<_>>()
+        };
+        let pattern = |c: &SystematicCheck, q: Quantity| {
+            c.patterns
+                .iter()
+                .filter(|p| p.quantity == q)
+                .any(|p| p.systematic)
+        };
+        let drift = precise(&mut rng, 0.0, 0.012);
+        let c = check(&drift[..8], &drift[8..], &opts());
+        assert!(pattern(&c, Quantity::PowerDrift), "{:?}", c.patterns);
+        let energy = precise(&mut rng, 0.012, 0.0);
+        let c = check(&energy[..8], &energy[8..], &opts());
+        assert!(!pattern(&c, Quantity::Energy), "{:?}", c.patterns);
+        assert!(
+            c.patterns
+                .iter()
+                .any(|p| p.quantity == Quantity::Energy && p.t.abs() > 3.5)
         );
     }
 
