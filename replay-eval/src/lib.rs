@@ -639,6 +639,23 @@ fn replay_scenario_by(
     }
 }
 
+/// A scenario prepared as `opts` asks: with `sensors`, and without its current column when
+/// [`StudyOptions::voltage_only`].
+fn prepare_for(
+    opts: &StudyOptions,
+    family: &Family,
+    seed: u64,
+    sensors: SensorErrors,
+) -> Result<PreparedScenario, EvalError> {
+    prepare_scenario_with(family, seed, sensors).map(|p| {
+        if opts.voltage_only {
+            p.without_current()
+        } else {
+            p
+        }
+    })
+}
+
 /// The oracle budget on a study's seeds: every scenario is prepared once per sensor choice the
 /// `oracles` need and replayed with each (without its current column with
 /// [`StudyOptions::voltage_only`]; the pack history is not carried); one [`Study`] per oracle,
@@ -667,13 +684,7 @@ pub fn study_oracles(
                             if mine.is_empty() {
                                 continue;
                             }
-                            let prepared = prepare_scenario_with(&fam, s, sensors).map(|p| {
-                                if opts.voltage_only {
-                                    p.without_current()
-                                } else {
-                                    p
-                                }
-                            });
+                            let prepared = prepare_for(opts, &fam, s, sensors);
                             for k in mine {
                                 let r = match &prepared {
                                     Ok(p) => {
@@ -833,14 +844,7 @@ pub fn study_with(
                     let mut out = Vec::new();
                     for &s in seeds.iter().skip(t).step_by(threads) {
                         let fam = family_of(s, &opts.families);
-                        let r = prepare_scenario_with(&fam, s, sensors)
-                            .map(|p| {
-                                if opts.voltage_only {
-                                    p.without_current()
-                                } else {
-                                    p
-                                }
-                            })
+                        let r = prepare_for(opts, &fam, s, sensors)
                             .map(|p| {
                                 replay_scenario_with_history(&p, &opts.config, opts.pack_history)
                             })

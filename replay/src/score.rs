@@ -324,11 +324,7 @@ impl<'a> TraceJson<'a> {
                 .map(|(m, p)| (*m, p.map(|p| p.0)))
                 .collect(),
             online_sigma_at_landing_s: t.at_landing.first().copied().flatten().and_then(|p| p.1),
-            unavailable: t
-                .unavailable
-                .iter()
-                .map(|(m, r)| (*m, r.as_str()))
-                .collect(),
+            unavailable: reasons_view(&t.unavailable),
             final_state: t.final_state.iter().copied().collect(),
         }
     }
@@ -417,11 +413,7 @@ impl Replay {
                         baselines: BaselinesView(&k.baselines),
                     })
                     .collect(),
-                unavailable: f
-                    .unavailable
-                    .iter()
-                    .map(|(m, r)| (*m, r.as_str()))
-                    .collect(),
+                unavailable: reasons_view(&f.unavailable),
                 final_state: f.final_state.iter().copied().collect(),
                 pack_history: f.capacity_reading.as_ref().map(|r| HistoryJson {
                     carried_from: f.capacity_carried.as_ref().map(|c| c.0.as_str()),
@@ -734,6 +726,11 @@ fn reading_line(r: &Result<crate::history::CapacityReading, String>) -> String {
         ),
         Err(why) => format!("  pack history: no capacity reading: {why}\n"),
     }
+}
+
+/// The methods that gave no prediction, with the reason, as the JSON's `unavailable` map.
+fn reasons_view<'a>(unavailable: &'a [(&'static str, String)]) -> BTreeMap<&'static str, &'a str> {
+    unavailable.iter().map(|(m, r)| (*m, r.as_str())).collect()
 }
 
 #[cfg(test)]
