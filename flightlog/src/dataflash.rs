@@ -12,11 +12,18 @@
 //! `FMT` whose length disagrees with its format, and ends at a truncated final message with a
 //! warning.
 //!
+//! The same log as text (`.log`, [`DataFlash::parse_text`]) has one message per line,
+//! `NAME, value, …`, each type defined by an `FMT, type, length, NAME, format, labels` line;
+//! each line is encoded as the `.bin` would hold it, so a text log is read by the same code
+//! and gives the same flight (a test checks it on every real `.bin` of `../shared`), its
+//! positions in errors and warnings being lines instead of bytes.
+//!
 //! A flight takes `BAT` (`TimeUS`, `Volt`, `Curr`; the lowest `Instance`), and for altitude
 //! `CTUN.Alt` (else `BARO.Alt`, lowest instance) and throttle `CTUN.ThO` (0–1), both
 //! interpolated onto the battery's times. Time is `BAT.TimeUS` (or `TimeMS`) from its first
 //! sample, s.
 
+use std::borrow::Cow;
 use std::collections::HashMap;
 use std::path::Path;
 
@@ -106,12 +113,19 @@ impl MessageFormat {
     }
 }
 
-/// A DataFlash log's formats and messages, borrowed from its bytes.
+/// One message: its position (byte offset, or line of a text log) and payload.
+type Message<'a> = (u64, Cow<'a, [u8]>);
+
+/// A DataFlash log's formats and messages: borrowed from its bytes for a `.bin`, encoded from
+/// its lines for a text log ([`DataFlash::parse_text`]).
 #[derive(Debug)]
 pub struct DataFlash<'a> {
     formats: HashMap<u8, MessageFormat>,
-    /// Messages per type: `(byte offset, payload)`, in file order.
-    messages: HashMap<u8, Vec<(u64, &'a [u8])>>,
+    /// Messages per type: `(position, payload)`, in file order; the position is a byte offset
+    /// in a `.bin` and a 1-based line number in a text log.
+    messages: HashMap<u8, Vec<Message<'a>>>,
+    /// Whether the log was text (positions are lines, not bytes).
+    text: bool,
     /// What was skipped (bytes that are not a message, a truncated tail).
     pub warnings: Vec<String>,
 }
@@ -120,6 +134,140 @@ pub struct DataFlash<'a> {
 fn text(bytes: &[u8]) -> String {
     let end = bytes.iter().position(|&b| b == 0).unwrap_or(bytes.len());
     String::from_utf8_lossy(&bytes[..end]).trim().to_owned()
+}
+
+/// Whether bytes look like ArduPilot's DataFlash as text: the first non-blank line is an
+/// `FMT` line (`FMT, 128, 89, FMT, BBnNZ, …` in every converter's output).
+pub fn is_text_log(bytes: &[u8]) -> bool {
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    bytes
+        .split(|&b| b == b'\n')
+        .map(<[u8]>::trim_ascii)
+        .find(|l| !l.is_empty())
+        .is_some_and(|l| {
+            let mut t = l.split(|&b| b == b',').map(<[u8]>::trim_ascii);
+            t.next() == Some(b"FMT")
+                && t.next()
+                    .is_some_and(|x| x.iter().all(u8::is_ascii_digit) && !x.is_empty())
+        })
+}
+
+/// An integer value of a text log as the field stores it: written as an integer, or as a
+/// number with a fraction (rounded), within `lo..=hi`.
+fn text_integer(token: &str, lo: i128, hi: i128) -> Result<i128, String> {
+    let v = match token.parse::<i128>() {
+        Ok(v) => v,
+        Err(_) => {
+            let x: f64 = token
+                .parse()
+                .map_err(|_| format!("{token:?} is not a number"))?;
+            if !x.is_finite() {
+                return Err(format!("{token:?} is not a finite number"));
+            }
+            x.round() as i128
+        }
+    };
+    if (lo..=hi).contains(&v) {
+        Ok(v)
+    } else {
+        Err(format!("{token} is outside {lo}…{hi}"))
+    }
+}
+
+/// Encodes the values of one text-log line (split at commas, untrimmed) into the payload a
+/// `.bin` would hold for it.
+fn encode_text_line(format: &MessageFormat, values: &[&str]) -> Result<Vec<u8>, String> {
+    let fields = format.format.len();
+    let joined: Vec<String>;
+    let values: Vec<&str> = if values.len() > fields {
+        // A text field that held commas: join the extra values back into it.
+        let texts: Vec<usize> = (0..fields)
+            .filter(|&k| matches!(format.format[k], b'n' | b'N' | b'Z'))
+            .collect();
+        let [k] = texts.as_slice() else {
+            return Err(format!("{} values for {fields} fields", values.len()));
+        };
+        let extra = values.len() - fields;
+        joined = vec![values[*k..=*k + extra].join(",").trim().to_owned()];
+        values[..*k]
+            .iter()
+            .copied()
+            .chain(joined.iter().map(String::as_str))
+            .chain(values[*k + extra + 1..].iter().copied())
+            .collect()
+    } else {
+        values.to_vec()
+    };
+    if values.len() < fields {
+        return Err(format!("{} values for {fields} fields", values.len()));
+    }
+    let mut out = Vec::with_capacity(format.length.saturating_sub(3));
+    for (&c, token) in format.format.iter().zip(&values) {
+        let token = token.trim();
+        let real = || -> Result<f64, String> {
+            token
+                .parse::<f64>()
+                .map_err(|_| format!("{token:?} is not a number"))
+        };
+        let scaled = |scale: f64, lo: i128, hi: i128| -> Result<i128, String> {
+            let x = real()?;
+            if !x.is_finite() {
+                return Err(format!("{token:?} is not a finite number"));
+            }
+            let v = (x * scale).round() as i128;
+            if (lo..=hi).contains(&v) {
+                Ok(v)
+            } else {
+                Err(format!("{token} is outside the field's range"))
+            }
+        };
+        match c {
+            b'b' => out.extend((text_integer(token, -128, 127)? as i8).to_le_bytes()),
+            b'B' | b'M' => out.extend((text_integer(token, 0, 255)? as u8).to_le_bytes()),
+            b'h' => out.extend(
+                (text_integer(token, i16::MIN.into(), i16::MAX.into())? as i16).to_le_bytes(),
+            ),
+            b'H' => out.extend((text_integer(token, 0, u16::MAX.into())? as u16).to_le_bytes()),
+            b'i' => out.extend(
+                (text_integer(token, i32::MIN.into(), i32::MAX.into())? as i32).to_le_bytes(),
+            ),
+            b'I' => out.extend((text_integer(token, 0, u32::MAX.into())? as u32).to_le_bytes()),
+            b'q' => out.extend(
+                (text_integer(token, i64::MIN.into(), i64::MAX.into())? as i64).to_le_bytes(),
+            ),
+            b'Q' => out.extend((text_integer(token, 0, u64::MAX.into())? as u64).to_le_bytes()),
+            b'f' => out.extend((real()? as f32).to_le_bytes()),
+            b'd' => out.extend(real()?.to_le_bytes()),
+            b'c' => {
+                out.extend((scaled(100.0, i16::MIN.into(), i16::MAX.into())? as i16).to_le_bytes())
+            }
+            b'C' => out.extend((scaled(100.0, 0, u16::MAX.into())? as u16).to_le_bytes()),
+            b'e' => {
+                out.extend((scaled(100.0, i32::MIN.into(), i32::MAX.into())? as i32).to_le_bytes())
+            }
+            b'E' => out.extend((scaled(100.0, 0, u32::MAX.into())? as u32).to_le_bytes()),
+            b'L' => {
+                // Degrees as converters write them; an integer beyond ±1000 is raw 1e-7 units.
+                let raw = match token.parse::<i64>() {
+                    Ok(v) if v.abs() > 1000 => i128::from(v),
+                    _ => scaled(1e7, i32::MIN.into(), i32::MAX.into())?,
+                };
+                let v = i32::try_from(raw)
+                    .map_err(|_| format!("{token} is outside the field's range"))?;
+                out.extend(v.to_le_bytes());
+            }
+            b'n' | b'N' | b'Z' => {
+                let size = field_size(c).unwrap_or(0);
+                let mut b = token.as_bytes().to_vec();
+                b.resize(size, 0);
+                out.extend(b);
+            }
+            // `int16[32]`: no text form is agreed on and nothing here reads one.
+            b'a' => out.extend([0u8; 64]),
+            other => return Err(format!("unknown format character {:?}", char::from(other))),
+        }
+    }
+    Ok(out)
 }
 
 impl<'a> DataFlash<'a> {
@@ -138,6 +286,7 @@ impl<'a> DataFlash<'a> {
         let mut log = DataFlash {
             formats: HashMap::new(),
             messages: HashMap::new(),
+            text: false,
             warnings: Vec::new(),
         };
         let mut skipped = 0usize;
@@ -250,7 +399,7 @@ impl<'a> DataFlash<'a> {
                 log.messages
                     .entry(kind)
                     .or_default()
-                    .push((pos as u64, payload));
+                    .push((pos as u64, Cow::Borrowed(payload)));
             }
             pos += length;
         }
@@ -261,6 +410,187 @@ impl<'a> DataFlash<'a> {
             ));
         }
         Ok(log)
+    }
+
+    /// Parses ArduPilot's DataFlash as text (Mission Planner's "convert .bin to .log", older
+    /// firmware's own text logs): one message per line, `NAME, value, value, …`, each type
+    /// defined by an earlier `FMT, type, length, NAME, format, Label1,Label2,…` line. Each
+    /// line is encoded as the `.bin` would hold it, so everything after this reads a text log
+    /// exactly as a binary one; positions are 1-based lines.
+    ///
+    /// Values are read as the text writes them: scaled fields (`c`, `C`, `e`, `E`) in their
+    /// units (`12.34`, not `1234`) and `L` in degrees (an integer beyond ±1000 is taken as the
+    /// raw 1e-7 units). A text field may hold commas (a `MSG`): when a line has more values
+    /// than its format, the extra ones are joined back into its one text field. Lines of an
+    /// undefined type, with too few values or a value that does not fit its field, are
+    /// skipped and counted in [`DataFlash::warnings`]; an `FMT` line that cannot be read is an
+    /// error.
+    pub fn parse_text(bytes: &[u8], path: &Path) -> Result<DataFlash<'static>, FlightLogError> {
+        let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+        if !is_text_log(bytes) {
+            return Err(FlightLogError::TextLog {
+                path: path.to_owned(),
+                line: 1,
+                field: "FMT".to_owned(),
+                message: "not an ArduPilot text log (its first line is not an FMT line)".to_owned(),
+            });
+        }
+        let mut log = DataFlash {
+            formats: HashMap::new(),
+            messages: HashMap::new(),
+            text: true,
+            warnings: Vec::new(),
+        };
+        let mut by_name: HashMap<String, u8> = HashMap::new();
+        // (count, first line) of each kind of line skipped.
+        let mut undefined = (0usize, 0u64);
+        let mut malformed = (0usize, 0u64, String::new());
+        for (k, raw) in bytes.split(|&b| b == b'\n').enumerate() {
+            let line_no = k as u64 + 1;
+            let line = String::from_utf8_lossy(raw);
+            let line = line.trim();
+            if line.is_empty() {
+                continue;
+            }
+            // Untrimmed: a text field that held commas is joined back as it was written.
+            let raw_tokens: Vec<&str> = line.split(',').collect();
+            let tokens: Vec<&str> = raw_tokens.iter().map(|t| t.trim()).collect();
+            let name = tokens[0];
+            if name == "FMT" {
+                let fail = |field: &str, message: String| FlightLogError::TextLog {
+                    path: path.to_owned(),
+                    line: line_no,
+                    field: format!("FMT.{field}"),
+                    message,
+                };
+                if tokens.len() < 5 {
+                    return Err(fail(
+                        "Format",
+                        format!(
+                            "{} values where an FMT line has at least 5 (type, length, name, format, labels)",
+                            tokens.len() - 1
+                        ),
+                    ));
+                }
+                let msg_type: u8 = tokens[1].parse().map_err(|_| {
+                    fail(
+                        "Type",
+                        format!("{:?} is not a message type (0–255)", tokens[1]),
+                    )
+                })?;
+                let length: usize = tokens[2]
+                    .parse()
+                    .map_err(|_| fail("Length", format!("{:?} is not a length", tokens[2])))?;
+                if msg_type == FMT_TYPE {
+                    continue;
+                }
+                let type_name = tokens[3].to_owned();
+                let format = tokens[4].as_bytes().to_vec();
+                let labels: Vec<String> = tokens[5..]
+                    .iter()
+                    .map(|l| (*l).to_owned())
+                    .filter(|l| !l.is_empty())
+                    .collect();
+                let problem = format
+                    .iter()
+                    .find(|&&c| field_size(c).is_none())
+                    .map(|&bad| format!("unknown format character {:?}", char::from(bad)));
+                if let Some(p) = &problem {
+                    log.warnings.push(format!(
+                        "line {line_no}: FMT of type {msg_type} ({type_name}): {p}"
+                    ));
+                }
+                if labels.len() != format.len() {
+                    log.warnings.push(format!(
+                        "line {line_no}: FMT of type {msg_type} ({type_name}): {} labels for {} fields",
+                        labels.len(),
+                        format.len()
+                    ));
+                }
+                by_name.insert(type_name.clone(), msg_type);
+                log.formats.insert(
+                    msg_type,
+                    MessageFormat {
+                        msg_type,
+                        length,
+                        name: type_name,
+                        format,
+                        labels,
+                        defined_at: line_no,
+                        problem,
+                    },
+                );
+                continue;
+            }
+            let Some(format) = by_name.get(name).and_then(|t| log.formats.get(t)) else {
+                if undefined.0 == 0 {
+                    undefined.1 = line_no;
+                }
+                undefined.0 += 1;
+                continue;
+            };
+            if format.problem.is_some() {
+                continue;
+            }
+            match encode_text_line(format, &raw_tokens[1..]) {
+                Ok(payload) => log
+                    .messages
+                    .entry(format.msg_type)
+                    .or_default()
+                    .push((line_no, Cow::Owned(payload))),
+                Err(why) => {
+                    if malformed.0 == 0 {
+                        malformed.1 = line_no;
+                        malformed.2 = format!("{name}: {why}");
+                    }
+                    malformed.0 += 1;
+                }
+            }
+        }
+        if undefined.0 > 0 {
+            log.warnings.push(format!(
+                "{} line(s) of a message type no FMT line defines skipped (first at line {})",
+                undefined.0, undefined.1
+            ));
+        }
+        if malformed.0 > 0 {
+            log.warnings.push(format!(
+                "{} line(s) that do not fit their format skipped (first at line {}, {})",
+                malformed.0, malformed.1, malformed.2
+            ));
+        }
+        Ok(log)
+    }
+
+    /// Where a message is, as errors and warnings say it: `byte N` in a `.bin`, `line N` in
+    /// a text log.
+    pub fn position(&self, at: u64) -> String {
+        if self.text {
+            format!("line {at}")
+        } else {
+            format!("byte {at}")
+        }
+    }
+
+    /// An error about `field` of the message at position `at` (a byte offset, or a line of a
+    /// text log).
+    pub fn error(
+        &self,
+        path: &Path,
+        at: u64,
+        field: impl Into<String>,
+        message: String,
+    ) -> FlightLogError {
+        if self.text {
+            FlightLogError::TextLog {
+                path: path.to_owned(),
+                line: at,
+                field: field.into(),
+                message,
+            }
+        } else {
+            FlightLogError::binary(path, at, field, message)
+        }
     }
 
     /// The format of a message name.
@@ -348,7 +678,7 @@ impl<'a> DataFlash<'a> {
             return Ok(Vec::new());
         };
         let fail = |offset: u64, field: &str, message: String| {
-            FlightLogError::binary(path, offset, format!("{name}.{field}"), message)
+            self.error(path, offset, format!("{name}.{field}"), message)
         };
         if let Some(problem) = &format.problem {
             return Err(fail(format.defined_at, "FMT", problem.clone()));
@@ -375,7 +705,8 @@ impl<'a> DataFlash<'a> {
             payload.get(off..).and_then(|b| decode_field(c, b))
         };
         let mut rows = Vec::with_capacity(messages.len());
-        for &(offset, payload) in messages {
+        for (offset, payload) in messages {
+            let (offset, payload) = (*offset, payload.as_ref());
             if let (Some(slot), Some(w)) = (slot, instance)
                 && value(payload, slot) != Some(f64::from(w))
             {
@@ -506,7 +837,7 @@ fn battery_tracks(log: &DataFlash<'_>, path: &Path) -> Result<Vec<Track>, Flight
             continue;
         }
         if let Some(problem) = &format.problem {
-            return Err(FlightLogError::binary(
+            return Err(log.error(
                 path,
                 format.defined_at,
                 format!("{name}.FMT"),
@@ -667,9 +998,18 @@ fn vehicle(
 
 /// Parses a `.bin` into a flight's samples.
 pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError> {
-    let log = DataFlash::parse(bytes, path)?;
+    decode(&DataFlash::parse(bytes, path)?, path)
+}
+
+/// Parses a text DataFlash log (`.log`) into a flight's samples, as [`parse`] a `.bin`.
+pub(crate) fn parse_text(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError> {
+    decode(&DataFlash::parse_text(bytes, path)?, path)
+}
+
+/// A flight's samples from a DataFlash log, binary or text.
+fn decode(log: &DataFlash<'_>, path: &Path) -> Result<Decoded, FlightLogError> {
     let mut warnings = log.warnings.clone();
-    let tracks = battery_tracks(&log, path)?;
+    let tracks = battery_tracks(log, path)?;
     let mut chosen = battery::choose(
         path,
         &tracks,
@@ -689,7 +1029,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
             "{}.{time_label}",
             chosen.info.battery.split(' ').next().unwrap_or("BAT")
         ),
-        |i| format!("byte {}", chosen.offsets.get(i).copied().unwrap_or(0)),
+        |i| log.position(chosen.offsets.get(i).copied().unwrap_or(0)),
     )?;
 
     // What the log says about itself.

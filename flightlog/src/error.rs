@@ -121,6 +121,18 @@ pub enum FlightLogError {
         /// What is wrong.
         message: String,
     },
+    /// A text log (ArduPilot's DataFlash as text) whose line does not follow its format.
+    #[error("{}, line {line}, {field}: {message}", path.display())]
+    TextLog {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line of the message (or of its `FMT`) concerned.
+        line: u64,
+        /// The message or field concerned (`BAT.Volt`, `FMT`).
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
     /// A log that is well-formed but lacks what a flight needs (no battery voltage).
     #[error("{}: no {field}: {message}", path.display())]
     MissingData {
@@ -150,7 +162,7 @@ pub enum FlightLogError {
     },
     /// A folder with nothing to read.
     #[error(
-        "{}: no flight logs (*.csv, *.ulg, *.bin, or a Crazyflie Real_path/ folder){}",
+        "{}: no flight logs (*.csv, *.ulg, *.bin, *.log, or a Crazyflie Real_path/ folder){}",
         path.display(),
         subfolder_hint(subfolders)
     )]
@@ -203,6 +215,7 @@ impl FlightLogError {
             | Self::Toml { path, .. }
             | Self::Meta { path, .. }
             | Self::Binary { path, .. }
+            | Self::TextLog { path, .. }
             | Self::MissingData { path, .. }
             | Self::UnknownFormat { path, .. }
             | Self::NoUsableBattery { path, .. }

@@ -9,7 +9,9 @@
 //! - the Crazyflie dataset's CSV (`x_estimate,y_estimate,z_estimate,battery_voltage` at 100 Hz),
 //!   alone or as the dataset's folder with `Real_path/` and `Planned_trajectories/`, with
 //!   documented platform defaults ([`crazyflie`]);
-//! - a PX4 ULog `.ulg` ([`ulog`]) or an ArduPilot DataFlash `.bin` ([`dataflash`]).
+//! - a PX4 ULog `.ulg` ([`ulog`]) or an ArduPilot DataFlash `.bin` ([`dataflash`]), or the
+//!   same DataFlash as text (`.log`: Mission Planner's "convert .bin to .log", older
+//!   firmware's text logs; [`dataflash::DataFlash::parse_text`]).
 //!
 //! A binary log's batteries (every ULog `battery_status` instance; DataFlash `BAT`, `BAT2`,
 //! ArduCopter 3.x `CURR` and `BCL`) go through one check ([`battery`]): a battery that is not
@@ -178,6 +180,9 @@ pub enum LogFormat {
     Ulog,
     /// ArduPilot DataFlash.
     DataFlash,
+    /// ArduPilot DataFlash as text (`.log`: Mission Planner's conversion of a `.bin`, or older
+    /// firmware's text logs).
+    DataFlashText,
 }
 
 impl LogFormat {
@@ -190,13 +195,21 @@ impl LogFormat {
         match ext.as_deref() {
             Some("ulg") => Ok(Self::Ulog),
             Some("bin") => Ok(Self::DataFlash),
+            Some("log" | "txt") if dataflash::is_text_log(bytes) => Ok(Self::DataFlashText),
+            Some("log") => Err(FlightLogError::UnknownFormat {
+                path: path.to_owned(),
+                message:
+                    "a .log that is not an ArduPilot text log (its first line is not `FMT, 128, …`)"
+                        .to_owned(),
+            }),
             Some("csv") if crazyflie::has_header(bytes) => Ok(Self::Crazyflie),
             Some("csv") => Ok(Self::Csv),
             _ if bytes.starts_with(&ulog::MAGIC) => Ok(Self::Ulog),
             _ if bytes.starts_with(&dataflash::MAGIC) => Ok(Self::DataFlash),
+            _ if dataflash::is_text_log(bytes) => Ok(Self::DataFlashText),
             _ => Err(FlightLogError::UnknownFormat {
                 path: path.to_owned(),
-                message: "not a .csv, .ulg or .bin flight log".to_owned(),
+                message: "not a .csv, .ulg, .bin or text .log flight log".to_owned(),
             }),
         }
     }
@@ -248,6 +261,7 @@ impl Flight {
             LogFormat::Crazyflie => crazyflie::parse(bytes, source)?,
             LogFormat::Ulog => ulog::parse(bytes, source)?,
             LogFormat::DataFlash => dataflash::parse(bytes, source)?,
+            LogFormat::DataFlashText => dataflash::parse_text(bytes, source)?,
         };
         let below = match format {
             LogFormat::Crazyflie => vec![crazyflie::platform_layer()],
@@ -421,7 +435,8 @@ impl Flight {
 /// the message's format lacks.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Row {
-    /// Byte offset of the message in the file.
+    /// Position of the message in the file: its byte offset, or its 1-based line in a text
+    /// log.
     pub offset: u64,
     /// The fields' values, in the order asked for.
     pub values: Vec<Option<f64>>,

@@ -97,6 +97,7 @@ pub fn format_name(format: LogFormat) -> &'static str {
         LogFormat::Crazyflie => "crazyflie",
         LogFormat::Ulog => "ulog",
         LogFormat::DataFlash => "dataflash",
+        LogFormat::DataFlashText => "dataflash-text",
     }
 }
 

@@ -15,6 +15,8 @@
 mod crazyflie;
 #[path = "dataflash.rs"]
 mod dataflash;
+#[path = "dataflash_text.rs"]
+mod dataflash_text;
 #[path = "never_panics.rs"]
 mod never_panics;
 #[path = "real_logs.rs"]

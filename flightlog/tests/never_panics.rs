@@ -14,12 +14,37 @@ use flightlog::phase::{self, Signals};
 use flightlog::{Flight, FlightMeta, LogFormat};
 use proptest::prelude::*;
 
-const FORMATS: [LogFormat; 4] = [
+const FORMATS: [LogFormat; 5] = [
     LogFormat::Csv,
     LogFormat::Crazyflie,
     LogFormat::Ulog,
     LogFormat::DataFlash,
+    LogFormat::DataFlashText,
 ];
+
+/// A small ArduPilot text log: BAT at 10 Hz, a CTUN, a MSG with commas, a PARM.
+fn valid_text_log() -> String {
+    let mut s = String::from(
+        "FMT, 128, 89, FMT, BBnNZ, Type,Length,Name,Format,Columns\n\
+         FMT, 147, 39, BAT, QBfffffcf, TimeUS,Instance,Volt,VoltR,Curr,CurrTot,EnrgTot,Temp,Res\n\
+         FMT, 148, 27, CTUN, Qfff, TimeUS,ThO,Alt,CRt\n\
+         FMT, 91, 75, MSG, QZ, TimeUS,Message\n\
+         FMT, 64, 31, PARM, QNf, TimeUS,Name,Value\n\
+         MSG, 100, ArduCopter V4.5.7 (2a3dc4b7)\n\
+         MSG, 101, Frame: QUAD, ok\n\
+         PARM, 102, BATT_CAPACITY, 5000\n",
+    );
+    for k in 0..40u64 {
+        let us = 1_000_000 + k * 100_000;
+        let amps = if k < 10 { 0.3 } else { 9.0 };
+        s.push_str(&format!(
+            "BAT, {us}, 0, {:.3}, 12.1, {amps}, 0, 0, 25.00, 0.01\nCTUN, {us}, 0.4, {}, 0\n",
+            12.0 - k as f64 * 0.01,
+            if k < 10 { 0.0 } else { 2.0 }
+        ));
+    }
+    s
+}
 
 /// Parses as `format`; checks the invariants of any flight returned.
 fn check(bytes: &[u8], format: LogFormat) {
@@ -38,6 +63,19 @@ fn check(bytes: &[u8], format: LogFormat) {
         assert!(lo <= hi);
         let _ = f.plausibility_warnings();
     }
+}
+
+#[test]
+fn the_text_log_that_is_corrupted_is_a_flight() {
+    let f = Flight::parse(
+        valid_text_log().as_bytes(),
+        Path::new("t.log"),
+        LogFormat::DataFlashText,
+    )
+    .unwrap();
+    assert_eq!(f.samples.len(), 40);
+    assert!(f.samples.altitude_m.is_some() && f.samples.throttle.is_some());
+    assert_eq!(f.meta.capacity_mah, Some(5000.0));
 }
 
 fn valid_ulog() -> Vec<u8> {
@@ -145,6 +183,7 @@ proptest! {
     ) {
         check(&corrupt(CSV.as_bytes(), &edits, cut, b""), LogFormat::Csv);
         check(&corrupt(CRAZYFLIE.as_bytes(), &edits, cut, b""), LogFormat::Crazyflie);
+        check(&corrupt(valid_text_log().as_bytes(), &edits, cut, b""), LogFormat::DataFlashText);
         let _ = flightlog::crazyflie::parse_plan(&corrupt(b"x,y,z\n1,2,3\n", &edits, cut, b""), Path::new("p.csv"));
     }
 

@@ -263,6 +263,9 @@ fn binary_kind(bytes: &[u8]) -> Option<(&'static str, &'static str)> {
         Some(("a PX4 ULog flight log", FLIGHT_LOG))
     } else if bytes.starts_with(&[0xA3, 0x95]) {
         Some(("an ArduPilot DataFlash flight log", FLIGHT_LOG))
+    } else if bytes.trim_ascii_start().starts_with(b"FMT, 128,") {
+        // Every converter of a `.bin` to text opens with the FMT message's own definition.
+        Some(("an ArduPilot DataFlash flight log as text", FLIGHT_LOG))
     } else {
         None
     }
@@ -870,6 +873,14 @@ mod tests {
         let e = Table::parse(b"\xA3\x95\x80rest", "log.bin").unwrap_err();
         assert!(e.to_string().starts_with(
             "log.bin: an ArduPilot DataFlash flight log, not a CSV table; flight logs are read"
+        ));
+        let e = Table::parse(
+            b"FMT, 128, 89, FMT, BBnNZ, Type,Length,Name,Format,Columns\r\nFMT, 147, 21, BAT, Qff, TimeUS,Volt,Curr\r\n",
+            "00000042.log",
+        )
+        .unwrap_err();
+        assert!(e.to_string().starts_with(
+            "00000042.log: an ArduPilot DataFlash flight log as text, not a CSV table; flight logs"
         ));
         // Text that is not UTF-8 (a Latin-1 degree sign in a comment) is still a table.
         let t = Table::parse(b"# rig at 20 \xB0C\nthrust_g,power_w\n10,1.5\n", "l.csv").unwrap();
