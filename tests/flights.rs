@@ -165,3 +165,22 @@ fn nothing_readable_is_an_error_after_the_reasons() {
     let stderr = String::from_utf8(out.stderr).unwrap();
     assert!(stderr.contains("no flight could be read"), "{stderr}");
 }
+
+/// A folder of the text logs other tools write (in `flightlog/tests/data/`, with their
+/// licences): an APM 2 text DataFlash log and a PX4 `ulog2csv` battery export are read, and the
+/// two that cannot be are listed with their reasons.
+#[test]
+fn text_logs_of_other_tools_in_words() {
+    let data = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("flightlog/tests/data");
+    let out = bin()
+        .current_dir(&data)
+        .args(["flights", "ardupilot-text", "px4-ulog2csv"])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    insta::assert_snapshot!(String::from_utf8(out.stdout).unwrap());
+}

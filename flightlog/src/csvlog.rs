@@ -6,6 +6,16 @@
 //! `throttle`. Other columns are ignored and listed in the flight's warnings. A UTF-8
 //! byte-order mark, `#` comment lines, blank lines and spaces around cells are accepted; every
 //! cell of a present column must hold a finite number (or a phase name).
+//!
+//! Where a column of those exact names is absent, one that other tools write is taken in its
+//! place, its unit read from the header ([`alias`]): a name (`time`, `timestamp`, `TimeUS`;
+//! `voltage`, `volt`, `vbat`, `vbatLatest`; `current`, `curr`, `amps`, `amperageLatest`;
+//! `altitude`, `alt`, `height`; any case) with its unit as a suffix (`_ms`), in brackets
+//! (`time (us)`, `Voltage [V]`) or in the name (`TimeUS`). So a PX4 `ulog2csv` export of
+//! `battery_status` (`timestamp` in µs, `voltage_v`, `current_a`), Betaflight's
+//! `blackbox_decode` CSV (`time (us)`, `vbatLatest (V)`, `amperageLatest (A)`) and ArduPilot's
+//! `BAT` exported as CSV (`TimeUS`, `Volt`, `Curr`) read as they are. A column read so is
+//! named in the flight's warnings.
 
 use std::path::Path;
 
@@ -77,6 +87,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
     let header_line = header.position().map_or(1, csv::Position::line);
     let names: Vec<String> = header.iter().map(str::to_owned).collect();
     let mut index = [None::<usize>; 6];
+    let mut scale = [1.0f64; 6];
     let mut ignored = Vec::new();
     for (i, name) in names.iter().enumerate() {
         match COLUMNS.iter().position(|c| c == name) {
@@ -88,11 +99,28 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
                 });
             }
             Some(k) => index[k] = Some(i),
-            None => ignored.push(name.clone()),
+            None => ignored.push(i),
         }
     }
     // A thrust stand's export has a thrust column and no flight clock: say where it goes.
     let stand = names.iter().any(|n| n.to_lowercase().contains("thrust"));
+    // Columns other tools write, for the columns not named exactly (the first of each); not
+    // in a thrust stand's export, whose time and voltage are a bench's, not a flight's.
+    let mut read_as = Vec::new();
+    ignored.retain(|&i| match alias(&names[i]).filter(|_| !stand) {
+        Some((k, s)) if index[k].is_none() => {
+            index[k] = Some(i);
+            scale[k] = s;
+            read_as.push(if s == 1.0 {
+                format!("{:?} as {}", names[i], COLUMNS[k])
+            } else {
+                format!("{:?} as {} (× {s})", names[i], COLUMNS[k])
+            });
+            false
+        }
+        _ => true,
+    });
+    let ignored: Vec<String> = ignored.iter().map(|&i| names[i].clone()).collect();
     let require = |k: usize| {
         index[k].ok_or_else(|| FlightLogError::MissingColumn {
             path: path.to_owned(),
@@ -142,17 +170,17 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
             .filter(|v| v.is_finite())
             .ok_or_else(|| bad(i, "a finite number"))
         };
-        samples.time_s.push(number(i_time)?);
-        let v = number(i_volt)?;
+        samples.time_s.push(number(i_time)? * scale[0]);
+        let v = number(i_volt)? * scale[1];
         if v <= 0.0 {
             return Err(bad(i_volt, "a positive voltage"));
         }
         samples.voltage_v.push(v);
         if let (Some(i), Some(col)) = (i_cur, samples.current_a.as_mut()) {
-            col.push(number(i)?);
+            col.push(number(i)? * scale[2]);
         }
         if let (Some(i), Some(col)) = (i_alt, samples.altitude_m.as_mut()) {
-            col.push(number(i)?);
+            col.push(number(i)? * scale[4]);
         }
         if let (Some(i), Some(col)) = (i_thr, samples.throttle.as_mut()) {
             col.push(number(i)?);
@@ -167,19 +195,109 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
         }
         lines.push(line);
     }
-    crate::check_time(path, &samples.time_s, "time_s", |i| {
+    let mut warnings = Vec::new();
+    // PX4 writes −1 for a current it does not measure: a column that holds nothing else is no
+    // current.
+    if let Some(i) = i_cur
+        && samples
+            .current_a
+            .as_ref()
+            .is_some_and(|c| !c.is_empty() && c.iter().all(|&a| a < crate::battery::MIN_CURRENT_A))
+    {
+        samples.current_a = None;
+        warnings.push(format!(
+            "column {:?} is below {} A throughout (a current not measured, as PX4 logs it): read as no current",
+            names[i],
+            crate::battery::MIN_CURRENT_A
+        ));
+    }
+    let time_name = &names[i_time];
+    crate::check_time(path, &samples.time_s, time_name, |i| {
         format!("line {}", lines.get(i).copied().unwrap_or(header_line))
     })?;
-    let warnings = if ignored.is_empty() {
-        Vec::new()
-    } else {
-        vec![format!("columns ignored: {}", ignored.join(", "))]
-    };
+    if !read_as.is_empty() {
+        warnings.push(format!("columns read: {}", read_as.join(", ")));
+    }
+    if !ignored.is_empty() {
+        warnings.push(format!("columns ignored: {}", ignored.join(", ")));
+    }
     Ok(Decoded {
         samples,
         landed: None,
         warnings,
         info: crate::LogInfo::default(),
+    })
+}
+
+/// The column of [`COLUMNS`] a header name of another tool stands for, and the scale from its
+/// unit to that column's (`time (us)` → `time_s`, 1e-6). `None` for a name it does not know,
+/// or a known name with a unit that does not fit (`voltage (A)`). The unit is taken from
+/// brackets (`(us)`, `[V]`), else a `_unit` suffix, else the name itself (`TimeUS`); without
+/// one, a column is in the canonical unit, except `timestamp` (µs, as PX4 writes it).
+pub fn alias(header: &str) -> Option<(usize, f64)> {
+    let lower = header.trim().to_lowercase();
+    let (stem, unit) = match lower.find(['(', '[']) {
+        Some(open) => {
+            let unit = lower[open + 1..].trim_end_matches([')', ']']).trim();
+            (lower[..open].trim(), Some(unit.to_owned()))
+        }
+        None => match lower.rsplit_once('_') {
+            Some((stem, u)) if unit_scale(u).is_some() => (stem, Some(u.to_owned())),
+            _ => (lower.as_str(), None),
+        },
+    };
+    let stem = stem.trim_end_matches(['_', ' ']);
+    // (column, unit when the header gives none, whether the name fixes its unit)
+    let (column, default, fixed) = match stem {
+        "time" | "t" | "time_boot" | "time_since_start" => (0, None, false),
+        // PX4's `ulog2csv` writes `timestamp` in µs.
+        "timestamp" => (0, Some("us"), false),
+        "timeus" => (0, Some("us"), true),
+        "timems" => (0, Some("ms"), true),
+        "voltage" | "volt" | "volts" | "vbat" | "battery_voltage" | "batteryvoltage"
+        | "bat_voltage" | "pack_voltage" => (1, None, false),
+        "current" | "curr" | "amps" | "amp" | "amperage" | "battery_current" | "batterycurrent"
+        | "bat_current" | "pack_current" => (2, None, false),
+        // Betaflight's raw ADC units unless its decoder wrote a unit.
+        "vbatlatest" if unit.is_some() => (1, None, false),
+        "amperagelatest" if unit.is_some() => (2, None, false),
+        "altitude" | "alt" | "height" | "relative_alt" | "rel_alt" => (4, None, false),
+        _ => return None,
+    };
+    let unit = match (unit, default) {
+        (Some(u), Some(d)) if fixed && u != d => return None,
+        (Some(u), _) => Some(u),
+        (None, d) => d.map(str::to_owned),
+    };
+    let scale = match unit.as_deref() {
+        None => 1.0,
+        Some(u) => {
+            let (dimension, scale) = unit_scale(u)?;
+            if dimension != column {
+                return None;
+            }
+            scale
+        }
+    };
+    Some((column, scale))
+}
+
+/// The column a unit measures (0 time, 1 voltage, 2 current, 4 altitude) and its scale to
+/// the canonical unit (s, V, A, m).
+fn unit_scale(unit: &str) -> Option<(usize, f64)> {
+    Some(match unit {
+        "s" | "sec" | "secs" | "seconds" => (0, 1.0),
+        "ms" => (0, 1e-3),
+        "us" | "µs" | "μs" => (0, 1e-6),
+        "v" | "volt" | "volts" => (1, 1.0),
+        "mv" => (1, 1e-3),
+        "a" | "amp" | "amps" => (2, 1.0),
+        "ma" => (2, 1e-3),
+        "m" => (4, 1.0),
+        "cm" => (4, 0.01),
+        "mm" => (4, 1e-3),
+        "ft" => (4, 0.3048),
+        _ => return None,
     })
 }
 
@@ -246,5 +364,106 @@ mod tests {
         let e = parse_str("time_s,voltage_v,time_s\n").unwrap_err();
         assert!(matches!(e, FlightLogError::DuplicateColumn { .. }));
         assert!(parse_str("").is_err());
+    }
+
+    #[test]
+    fn other_tools_headers_are_read_with_their_units() {
+        for (header, column, scale) in [
+            ("time (us)", 0, 1e-6),
+            ("Time (s)", 0, 1.0),
+            ("time_ms", 0, 1e-3),
+            ("timestamp", 0, 1e-6),
+            ("timestamp (ms)", 0, 1e-3),
+            ("TimeUS", 0, 1e-6),
+            ("time_boot_ms", 0, 1e-3),
+            ("vbatLatest (V)", 1, 1.0),
+            ("Voltage [V]", 1, 1.0),
+            ("Volt", 1, 1.0),
+            ("vbat_mv", 1, 1e-3),
+            ("amperageLatest (A)", 2, 1.0),
+            ("Curr", 2, 1.0),
+            ("current (mA)", 2, 1e-3),
+            ("Alt", 4, 1.0),
+            ("altitude_cm", 4, 0.01),
+        ] {
+            assert_eq!(alias(header), Some((column, scale)), "{header}");
+        }
+        // A unit of another quantity, a name that fixes another unit, raw ADC units, unknowns.
+        for header in [
+            "voltage (A)",
+            "TimeUS (ms)",
+            "vbatLatest",
+            "amperageLatest",
+            "voltage_filtered_v",
+            "VoltR",
+            "CurrTot",
+            "remaining",
+            "",
+        ] {
+            assert_eq!(alias(header), None, "{header}");
+        }
+    }
+
+    #[test]
+    fn a_px4_ulog2csv_battery_export_reads_as_it_is() {
+        // `ulog2csv -m battery_status`: `timestamp` in µs beside `voltage_filtered_v`.
+        let d = parse_str(
+            "timestamp,connected,voltage_v,voltage_filtered_v,current_a,current_filtered_a,remaining\n\
+             35000000,1,16.4,16.41,0.5,0.5,1\n35100000,1,16.3,16.32,12.5,12.0,0.99\n",
+        )
+        .unwrap();
+        assert_eq!(d.samples.time_s, [35.0, 35.1]);
+        assert_eq!(d.samples.voltage_v, [16.4, 16.3]);
+        assert_eq!(d.samples.current_a.unwrap(), [0.5, 12.5]);
+        assert_eq!(
+            d.warnings,
+            [
+                "columns read: \"timestamp\" as time_s (× 0.000001)",
+                "columns ignored: connected, voltage_filtered_v, current_filtered_a, remaining"
+            ]
+        );
+        // A battery that measures no current logs −1: no current.
+        let d = parse_str("timestamp,voltage_v,current_a\n0,12,-1\n100000,12,-1\n").unwrap();
+        assert!(d.samples.current_a.is_none());
+        assert!(
+            d.warnings[0].contains("read as no current"),
+            "{:?}",
+            d.warnings
+        );
+    }
+
+    #[test]
+    fn betaflight_and_ardupilot_csv_exports_read_as_they_are() {
+        // blackbox_decode: spaces after the commas, units in brackets, many other columns.
+        let d = parse_str(
+            "loopIteration, time (us), axisP[0], vbatLatest (V), amperageLatest (A), rcCommand[3]\n\
+             0, 1000000, 3, 16.20, 1.50, 1200\n1, 1002000, 4, 16.18, 9.75, 1500\n",
+        )
+        .unwrap();
+        assert_eq!(d.samples.time_s, [1.0, 1.002]);
+        assert_eq!(d.samples.voltage_v, [16.2, 16.18]);
+        assert_eq!(d.samples.current_a.unwrap(), [1.5, 9.75]);
+        // Mission Planner's CSV of BAT: TimeUS, Volt, Curr (VoltR and CurrTot are not them).
+        let d = parse_str(
+            "TimeUS,Instance,Volt,VoltR,Curr,CurrTot\n5000000,0,12.5,12.6,8,10\n5100000,0,12.4,12.6,8.1,10.2\n",
+        )
+        .unwrap();
+        assert_eq!(d.samples.time_s, [5.0, 5.1]);
+        assert_eq!(d.samples.current_a.unwrap(), [8.0, 8.1]);
+        // The exact names win over another tool's; a missing column still says what it needs.
+        let d = parse_str("time_s,timestamp,voltage_v\n0,7,12\n1,9,12\n").unwrap();
+        assert_eq!(d.samples.time_s, [0.0, 1.0]);
+        let e = parse_str("vbatLatest,time (us)\n1600,0\n").unwrap_err();
+        assert!(e.to_string().contains("no column \"voltage_v\""), "{e}");
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn any_header_name_is_a_known_column_with_a_positive_scale_or_none(name in "\\PC{0,24}") {
+            if let Some((column, scale)) = alias(&name) {
+                proptest::prop_assert!([0, 1, 2, 4].contains(&column));
+                proptest::prop_assert!(scale > 0.0 && scale.is_finite());
+            }
+        }
     }
 }

@@ -21,7 +21,10 @@
 //! A flight takes `BAT` (`TimeUS`, `Volt`, `Curr`; the lowest `Instance`), and for altitude
 //! `CTUN.Alt` (else `BARO.Alt`, lowest instance) and throttle `CTUN.ThO` (0–1), both
 //! interpolated onto the battery's times. Time is `BAT.TimeUS` (or `TimeMS`) from its first
-//! sample, s.
+//! sample, s. A message without a time field (ArduCopter 3.0–3.1's `CURR` and `CTUN`) takes
+//! its times from the log's [`Clock`]: those of the most frequent message type that has them
+//! (`IMU.TimeMS`, `GPS.TimeMS`, 3.0's `GPS.Time`), interpolated by position in the log
+//! (checked on a real 3.1 log against the firmware's own charge counter: 1 %).
 
 use std::borrow::Cow;
 use std::collections::HashMap;
@@ -126,6 +129,9 @@ pub struct DataFlash<'a> {
     messages: HashMap<u8, Vec<Message<'a>>>,
     /// Whether the log was text (positions are lines, not bytes).
     text: bool,
+    /// The lines of a text log before its first `FMT` (APM 2's banner: log number, firmware,
+    /// free RAM, board); empty for a `.bin`.
+    pub preamble: Vec<String>,
     /// What was skipped (bytes that are not a message, a truncated tail).
     pub warnings: Vec<String>,
 }
@@ -136,20 +142,32 @@ fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(&bytes[..end]).trim().to_owned()
 }
 
-/// Whether bytes look like ArduPilot's DataFlash as text: the first non-blank line is an
-/// `FMT` line (`FMT, 128, 89, FMT, BBnNZ, …` in every converter's output).
+/// Lines a text log may open with before its first `FMT` line: APM 2's banner (log number,
+/// firmware, free RAM, board), none of them with a comma.
+const MAX_PREAMBLE_LINES: usize = 16;
+
+/// Whether bytes look like ArduPilot's DataFlash as text: an `FMT` line
+/// (`FMT, 128, 89, FMT, BBnNZ, …` in every converter's output) first, or after APM 2's
+/// banner of at most [`MAX_PREAMBLE_LINES`] lines without a comma.
 pub fn is_text_log(bytes: &[u8]) -> bool {
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
-    bytes
+    for line in bytes
         .split(|&b| b == b'\n')
         .map(<[u8]>::trim_ascii)
-        .find(|l| !l.is_empty())
-        .is_some_and(|l| {
-            let mut t = l.split(|&b| b == b',').map(<[u8]>::trim_ascii);
-            t.next() == Some(b"FMT")
-                && t.next()
-                    .is_some_and(|x| x.iter().all(u8::is_ascii_digit) && !x.is_empty())
-        })
+        .filter(|l| !l.is_empty())
+        .take(MAX_PREAMBLE_LINES + 1)
+    {
+        let mut t = line.split(|&b| b == b',').map(<[u8]>::trim_ascii);
+        if t.next() == Some(b"FMT") {
+            return t
+                .next()
+                .is_some_and(|x| !x.is_empty() && x.iter().all(u8::is_ascii_digit));
+        }
+        if line.contains(&b',') {
+            return false;
+        }
+    }
+    false
 }
 
 /// An integer value of a text log as the field stores it: written as an integer, or as a
@@ -223,7 +241,10 @@ fn encode_text_line(format: &MessageFormat, values: &[&str]) -> Result<Vec<u8>, 
         };
         match c {
             b'b' => out.extend((text_integer(token, -128, 127)? as i8).to_le_bytes()),
-            b'B' | b'M' => out.extend((text_integer(token, 0, 255)? as u8).to_le_bytes()),
+            b'B' => out.extend((text_integer(token, 0, 255)? as u8).to_le_bytes()),
+            // A flight mode, which text logs may write by name (`STABILIZE`): a name is kept
+            // as 255, as nothing here reads modes.
+            b'M' => out.push(text_integer(token, 0, 255).map_or(255, |m| m as u8)),
             b'h' => out.extend(
                 (text_integer(token, i16::MIN.into(), i16::MAX.into())? as i16).to_le_bytes(),
             ),
@@ -287,6 +308,7 @@ impl<'a> DataFlash<'a> {
             formats: HashMap::new(),
             messages: HashMap::new(),
             text: false,
+            preamble: Vec::new(),
             warnings: Vec::new(),
         };
         let mut skipped = 0usize;
@@ -414,14 +436,16 @@ impl<'a> DataFlash<'a> {
 
     /// Parses ArduPilot's DataFlash as text (Mission Planner's "convert .bin to .log", older
     /// firmware's own text logs): one message per line, `NAME, value, value, …`, each type
-    /// defined by an earlier `FMT, type, length, NAME, format, Label1,Label2,…` line. Each
+    /// defined by an earlier `FMT, type, length, NAME, format, Label1,Label2,…` line; the
+    /// lines before the first `FMT` (APM 2's banner) are kept as [`DataFlash::preamble`]. Each
     /// line is encoded as the `.bin` would hold it, so everything after this reads a text log
     /// exactly as a binary one; positions are 1-based lines.
     ///
     /// Values are read as the text writes them: scaled fields (`c`, `C`, `e`, `E`) in their
     /// units (`12.34`, not `1234`) and `L` in degrees (an integer beyond ±1000 is taken as the
     /// raw 1e-7 units). A text field may hold commas (a `MSG`): when a line has more values
-    /// than its format, the extra ones are joined back into its one text field. Lines of an
+    /// than its format, the extra ones are joined back into its one text field. A flight mode
+    /// (`M`) written by name is kept as 255 (nothing here reads modes). Lines of an
     /// undefined type, with too few values or a value that does not fit its field, are
     /// skipped and counted in [`DataFlash::warnings`]; an `FMT` line that cannot be read is an
     /// error.
@@ -439,9 +463,11 @@ impl<'a> DataFlash<'a> {
             formats: HashMap::new(),
             messages: HashMap::new(),
             text: true,
+            preamble: Vec::new(),
             warnings: Vec::new(),
         };
         let mut by_name: HashMap<String, u8> = HashMap::new();
+        let mut in_preamble = true;
         // (count, first line) of each kind of line skipped.
         let mut undefined = (0usize, 0u64);
         let mut malformed = (0usize, 0u64, String::new());
@@ -456,6 +482,11 @@ impl<'a> DataFlash<'a> {
             let raw_tokens: Vec<&str> = line.split(',').collect();
             let tokens: Vec<&str> = raw_tokens.iter().map(|t| t.trim()).collect();
             let name = tokens[0];
+            in_preamble &= name != "FMT";
+            if in_preamble {
+                log.preamble.push(line.to_owned());
+                continue;
+            }
             if name == "FMT" {
                 let fail = |field: &str, message: String| FlightLogError::TextLog {
                     path: path.to_owned(),
@@ -773,6 +804,49 @@ impl<'a> DataFlash<'a> {
         out
     }
 
+    /// The log's [`Clock`] for messages without a time field: the message type with a
+    /// `TimeUS` or `TimeMS` field (or, in ArduCopter 3.0, the GPS's `Time`, ms) that has the
+    /// most messages, its times in seconds against their positions; a time that is zero or
+    /// not above the one before (a GPS without a fix) is left out. `None` when no type has
+    /// two usable times.
+    pub fn clock(&self, path: &Path) -> Option<Clock> {
+        let mut best: Option<(usize, &str, &'static str, f64)> = None;
+        for name in self.names() {
+            let field = self.time_field(name).or_else(|| {
+                (name == "GPS" && self.format(name)?.field("Time").is_some())
+                    .then_some(("Time", 1e-3))
+            });
+            let Some((label, scale)) = field else {
+                continue;
+            };
+            let count = self
+                .format(name)
+                .and_then(|f| self.messages.get(&f.msg_type))
+                .map_or(0, Vec::len);
+            if best.is_none_or(|b| count > b.0) {
+                best = Some((count, name, label, scale));
+            }
+        }
+        let (_, name, label, scale) = best?;
+        let rows = self.rows(name, None, &[(label, true)], path).ok()?;
+        let mut points: Vec<(u64, f64)> = Vec::with_capacity(rows.len());
+        for r in &rows {
+            let Some(t) = r.values[0].map(|t| t * scale).filter(|t| *t > 0.0) else {
+                continue;
+            };
+            if points
+                .last()
+                .is_none_or(|&(p, last)| t > last && r.offset > p)
+            {
+                points.push((r.offset, t));
+            }
+        }
+        (points.len() >= 2).then(|| Clock {
+            label: format!("{name}.{label}"),
+            points,
+        })
+    }
+
     /// The time field of a message type and its scale to seconds: `("TimeUS", 1e-6)` or
     /// `("TimeMS", 1e-3)`.
     pub fn time_field(&self, name: &str) -> Option<(&'static str, f64)> {
@@ -784,6 +858,33 @@ impl<'a> DataFlash<'a> {
         } else {
             None
         }
+    }
+}
+
+/// A time for messages that carry none (ArduCopter 3.0–3.1's `CURR`, `CTUN`): the times of
+/// one message type that has them, against their positions in the log, interpolated.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Clock {
+    /// Where the times come from (`IMU.TimeMS`, `GPS.Time`).
+    pub label: String,
+    /// (position, time in s), positions and times strictly increasing.
+    points: Vec<(u64, f64)>,
+}
+
+impl Clock {
+    /// The time at a position in the log, s: interpolated between the stamped messages
+    /// around it; `None` before the first or after the last.
+    pub fn at(&self, position: u64) -> Option<f64> {
+        let k = self.points.partition_point(|&(p, _)| p <= position);
+        if k == 0 {
+            return None;
+        }
+        let (p0, t0) = self.points[k - 1];
+        if p0 == position {
+            return Some(t0);
+        }
+        let &(p1, t1) = self.points.get(k)?;
+        Some(t0 + (t1 - t0) * (position - p0) as f64 / (p1 - p0) as f64)
     }
 }
 
@@ -826,8 +927,12 @@ fn logged_cells(log: &DataFlash<'_>, path: &Path) -> Option<(u32, String)> {
 /// The battery tracks of a log: `BAT` per instance, `BAT2` (older firmware's second
 /// battery), `CURR` (ArduCopter 3.x), then `BCL` (per-cell voltages, ArduPilot's
 /// `CURR_CELL` structure, whose `Volt` is the pack voltage, without current).
-fn battery_tracks(log: &DataFlash<'_>, path: &Path) -> Result<Vec<Track>, FlightLogError> {
+fn battery_tracks(
+    log: &DataFlash<'_>,
+    path: &Path,
+) -> Result<(Vec<Track>, Vec<String>), FlightLogError> {
     let mut tracks = Vec::new();
+    let mut notes = Vec::new();
     let cells = logged_cells(log, path);
     for name in ["BAT", "BAT2", "CURR", "BCL"] {
         let Some(format) = log.format(name) else {
@@ -844,15 +949,18 @@ fn battery_tracks(log: &DataFlash<'_>, path: &Path) -> Result<Vec<Track>, Flight
                 problem.clone(),
             ));
         }
-        let Some((time_label, time_scale)) = log.time_field(name) else {
-            return Err(FlightLogError::MissingData {
+        // The message's own time, else the log's clock (ArduCopter 3.0–3.1's CURR has none).
+        let own_time = log.time_field(name);
+        let clock = match own_time {
+            Some(_) => None,
+            None => Some(log.clock(path).ok_or_else(|| FlightLogError::MissingData {
                 path: path.to_owned(),
                 field: format!("{name}.TimeUS"),
                 message: format!(
-                    "{name} messages have neither a TimeUS nor a TimeMS field (labels: {})",
+                    "{name} messages have neither a TimeUS nor a TimeMS field (labels: {}), and no other message of the log has a time to take theirs from",
                     format.labels.join(",")
                 ),
-            });
+            })?),
         };
         let (v_scale, i_scale) = (battery_scale(format, "Volt"), battery_scale(format, "Curr"));
         let instances: Vec<Option<u8>> = match log.instances(name) {
@@ -860,42 +968,55 @@ fn battery_tracks(log: &DataFlash<'_>, path: &Path) -> Result<Vec<Track>, Flight
             v => v.into_iter().map(Some).collect(),
         };
         for instance in instances {
-            let rows = log.rows(
-                name,
-                instance,
-                &[
-                    (time_label, true),
-                    ("Volt", true),
-                    ("Curr", false),
-                    ("RemPct", false),
-                ],
-                path,
-            )?;
-            // Time and voltage are required fields: every row has them.
-            let rows = Row::having(&rows, &[0, 1]);
+            let mut fields = vec![("Volt", true), ("Curr", false), ("RemPct", false)];
+            if let Some((label, _)) = own_time {
+                fields.push((label, true));
+            }
+            let all = log.rows(name, instance, &fields, path)?;
+            let time_of = |r: &Row| match (own_time, &clock) {
+                (Some((_, scale)), _) => r.values[3].map(|t| t * scale),
+                (None, Some(c)) => c.at(r.offset),
+                (None, None) => None,
+            };
+            // Voltage is a required field: a row without a time is one outside the clock.
+            let rows: Vec<(&Row, f64)> = all
+                .iter()
+                .filter(|r| r.values[0].is_some())
+                .filter_map(|r| Some((r, time_of(r)?)))
+                .collect();
+            if let Some(c) = &clock {
+                notes.push(format!(
+                    "{name} has no time field: its times are interpolated by position in the log between the {} of the messages around it{}",
+                    c.label,
+                    match all.len() - rows.len() {
+                        0 => String::new(),
+                        n => format!(" ({n} message(s) outside them left out)"),
+                    }
+                ));
+            }
             if rows.is_empty() {
                 continue;
             }
-            let col = |k: usize| rows.iter().map(move |r| r.values[k]);
-            let has_remaining = rows.first().is_some_and(|r| r.values[3].is_some());
+            let col = |k: usize| rows.iter().map(move |(r, _)| r.values[k]);
+            let has_remaining = rows.first().is_some_and(|(r, _)| r.values[2].is_some());
             tracks.push(Track {
                 name: match instance {
                     Some(i) => format!("{name} instance {i}"),
                     None => name.to_owned(),
                 },
-                offsets: rows.iter().map(|r| r.offset).collect(),
-                time_s: col(0).flatten().map(|t| t * time_scale).collect(),
-                voltage_v: col(1).flatten().map(|v| v * v_scale).collect(),
-                current_a: col(2).map(|c| c.map(|c| c * i_scale)).collect(),
+                offsets: rows.iter().map(|(r, _)| r.offset).collect(),
+                time_s: rows.iter().map(|&(_, t)| t).collect(),
+                voltage_v: col(0).flatten().map(|v| v * v_scale).collect(),
+                current_a: col(1).map(|c| c.map(|c| c * i_scale)).collect(),
                 connected: None,
                 remaining: has_remaining
-                    .then(|| col(3).map(|r| r.map_or(-1.0, |r| r / 100.0)).collect()),
+                    .then(|| col(2).map(|r| r.map_or(-1.0, |r| r / 100.0)).collect()),
                 warning: None,
                 cells: cells.clone(),
             });
         }
     }
-    Ok(tracks)
+    Ok((tracks, notes))
 }
 
 /// What ArduPilot firmware names a `FRAME_CLASS`.
@@ -1009,7 +1130,8 @@ pub(crate) fn parse_text(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLog
 /// A flight's samples from a DataFlash log, binary or text.
 fn decode(log: &DataFlash<'_>, path: &Path) -> Result<Decoded, FlightLogError> {
     let mut warnings = log.warnings.clone();
-    let tracks = battery_tracks(log, path)?;
+    let (tracks, mut notes) = battery_tracks(log, path)?;
+    warnings.append(&mut notes);
     let mut chosen = battery::choose(
         path,
         &tracks,
@@ -1019,21 +1141,25 @@ fn decode(log: &DataFlash<'_>, path: &Path) -> Result<Decoded, FlightLogError> {
     warnings.append(&mut chosen.warnings);
     let t0 = chosen.t0_s;
     let time_s = chosen.time_s.clone();
-    let time_label = log
-        .time_field(chosen.info.battery.split(' ').next().unwrap_or("BAT"))
-        .map_or("TimeUS", |(l, _)| l);
-    crate::check_time(
-        path,
-        &time_s,
-        &format!(
-            "{}.{time_label}",
-            chosen.info.battery.split(' ').next().unwrap_or("BAT")
+    let battery_type = chosen.info.battery.split(' ').next().unwrap_or("BAT");
+    let clock = log.clock(path);
+    let time_label = match log.time_field(battery_type) {
+        Some((label, _)) => format!("{battery_type}.{label}"),
+        None => format!(
+            "{battery_type} (times from {})",
+            clock
+                .as_ref()
+                .map_or("the log's clock", |c| c.label.as_str())
         ),
-        |i| log.position(chosen.offsets.get(i).copied().unwrap_or(0)),
-    )?;
+    };
+    crate::check_time(path, &time_s, &time_label, |i| {
+        log.position(chosen.offsets.get(i).copied().unwrap_or(0))
+    })?;
 
     // What the log says about itself.
-    let messages = log.texts("MSG", "Message");
+    // APM 2's text logs name their firmware in the banner before the first FMT.
+    let mut messages = log.texts("MSG", "Message");
+    messages.extend(log.preamble.iter().cloned());
     let params = log.parameters();
     let firmware = messages
         .iter()
@@ -1113,15 +1239,26 @@ fn decode(log: &DataFlash<'_>, path: &Path) -> Result<Decoded, FlightLogError> {
     info.battery = Some(chosen.info.clone());
 
     // Altitude and throttle: CTUN, else BARO for altitude.
+    // A message without a time field takes the log's clock, as the battery's may have.
     let series = |name: &str, field: &str| -> Result<Option<Vec<f64>>, FlightLogError> {
-        let Some((label, scale)) = log.time_field(name) else {
+        let own = log.time_field(name);
+        if own.is_none() && clock.is_none() {
             return Ok(None);
-        };
+        }
         let instance = log.instances(name).first().copied();
-        let rows = log.rows(name, instance, &[(label, true), (field, false)], path)?;
+        let mut fields = vec![(field, false)];
+        if let Some((label, _)) = own {
+            fields.push((label, true));
+        }
+        let rows = log.rows(name, instance, &fields, path)?;
+        let time_of = |r: &Row| match (own, &clock) {
+            (Some((_, scale)), _) => r.values[1].map(|t| t * scale),
+            (None, Some(c)) => c.at(r.offset),
+            (None, None) => None,
+        };
         let (t, v): (Vec<f64>, Vec<f64>) = rows
             .iter()
-            .filter_map(|r| Some((r.values[0]? * scale - t0, r.values[1]?)))
+            .filter_map(|r| Some((time_of(r)? - t0, r.values[0]?)))
             .filter(|(t, v)| t.is_finite() && v.is_finite())
             .unzip();
         Ok(crate::resample::linear(&t, &v, &time_s))

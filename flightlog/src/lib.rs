@@ -215,6 +215,12 @@ impl LogFormat {
     }
 }
 
+/// A time for a message, to the millisecond (a time derived from positions in the log has
+/// more digits than it means).
+fn round_3(t: f64) -> f64 {
+    (t * 1000.0).round() / 1000.0
+}
+
 /// One flight: its samples, what is known about it, and where its phases come from.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Flight {
@@ -511,8 +517,9 @@ pub(crate) fn check_time(
             return Err(fail(
                 i,
                 format!(
-                    "{dt} s without a sample (from {} s): longer than {MAX_GAP_S} s",
-                    time_s[i - 1]
+                    "{} s without a sample (from {} s): longer than {MAX_GAP_S} s",
+                    round_3(dt),
+                    round_3(time_s[i - 1])
                 ),
             ));
         }

@@ -21,6 +21,8 @@ mod dataflash_text;
 mod never_panics;
 #[path = "real_logs.rs"]
 mod real_logs;
+#[path = "real_text_logs.rs"]
+mod real_text_logs;
 #[path = "set.rs"]
 mod set;
 #[path = "ulog.rs"]
