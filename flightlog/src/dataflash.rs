@@ -144,7 +144,7 @@ fn text(bytes: &[u8]) -> String {
 
 /// Lines a text log may open with before its first `FMT` line: APM 2's banner (log number,
 /// firmware, free RAM, board), none of them with a comma.
-const MAX_PREAMBLE_LINES: usize = 16;
+pub const MAX_PREAMBLE_LINES: usize = 16;
 
 /// Whether bytes look like ArduPilot's DataFlash as text: an `FMT` line
 /// (`FMT, 128, 89, FMT, BBnNZ, …` in every converter's output) first, or after APM 2's
