@@ -15,7 +15,8 @@
 //! `battery_status` (`timestamp` in µs, `voltage_v`, `current_a`), Betaflight's
 //! `blackbox_decode` CSV (`time (us)`, `vbatLatest (V)`, `amperageLatest (A)`) and ArduPilot's
 //! `BAT` exported as CSV (`TimeUS`, `Volt`, `Curr`) read as they are. A column read so is
-//! named in the flight's warnings.
+//! named in the flight's warnings. A PX4 export (its `discharged_mah` column) also gives the
+//! flight's `cells` (`cell_count`) and, when PX4 was told it, `capacity_mah` (`capacity`).
 
 use std::path::Path;
 
@@ -135,6 +136,14 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
     };
     let (i_time, i_volt) = (require(0)?, require(1)?);
     let (i_cur, i_phase, i_alt, i_thr) = (index[2], index[3], index[4], index[5]);
+    // A PX4 `ulog2csv` export of `battery_status` (told by PX4's own pair of columns) also
+    // says the pack's cells and, when set, its capacity (mAh).
+    let px4_column = |name: &str| {
+        let has = |n: &str| names.iter().position(|c| c == n);
+        has("discharged_mah").and(has(name))
+    };
+    let (i_cells, i_capacity) = (px4_column("cell_count"), px4_column("capacity"));
+    let (mut cells, mut capacity_mah) = (None::<f64>, None::<f64>);
 
     let mut samples = Samples {
         current_a: i_cur.map(|_| Vec::new()),
@@ -193,9 +202,27 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
                 )
             })?);
         }
+        let positive = |i: Option<usize>| {
+            i.and_then(|i| cell(i).parse::<f64>().ok())
+                .filter(|v| v.is_finite() && *v > 0.0)
+        };
+        cells = cells.or(positive(i_cells).filter(|c| c.fract() == 0.0 && *c <= 30.0));
+        capacity_mah = capacity_mah.or(positive(i_capacity));
         lines.push(line);
     }
     let mut warnings = Vec::new();
+    let mut info = crate::LogInfo::default();
+    if let Some(c) = cells {
+        info.set("cells", "battery_status.cell_count column", |m| {
+            m.cells = Some(c as u32);
+        });
+    }
+    if let Some(mah) = capacity_mah {
+        info.set("capacity_mah", "battery_status.capacity column", |m| {
+            m.capacity_mah = Some(mah);
+        });
+    }
+    info.derive_energy();
     // PX4 writes −1 for a current it does not measure: a column that holds nothing else is no
     // current.
     if let Some(i) = i_cur
@@ -225,7 +252,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
         samples,
         landed: None,
         warnings,
-        info: crate::LogInfo::default(),
+        info,
     })
 }
 

@@ -101,6 +101,9 @@ fn a_px4_ulog2csv_battery_export_agrees_with_px4s_own_counter() {
     let f = Flight::read(&path).unwrap();
     assert_eq!(f.format, LogFormat::Csv);
     assert_eq!(f.samples.len(), 1539);
+    // The pack PX4 was told of: 5 cells, 3000 mAh.
+    assert_eq!(f.meta.cells, Some(5));
+    assert_eq!(f.meta.capacity_mah, Some(3000.0));
     assert!((f.samples.duration_s() - 307.4).abs() < 0.1);
     // PX4's `discharged_mah`, first row to last (read here from the file's own column).
     let text = std::fs::read_to_string(&path).unwrap();
