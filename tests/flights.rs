@@ -166,15 +166,22 @@ fn nothing_readable_is_an_error_after_the_reasons() {
     assert!(stderr.contains("no flight could be read"), "{stderr}");
 }
 
-/// A folder of the text logs other tools write (in `flightlog/tests/data/`, with their
-/// licences): an APM 2 text DataFlash log and a PX4 `ulog2csv` battery export are read, and the
-/// two that cannot be are listed with their reasons.
+/// The logs other tools write (in `flightlog/tests/data/`, with their licences): an APM 2 text
+/// DataFlash log, a PX4 `ulog2csv` battery export and two ground stations' MAVLink telemetry
+/// logs are read, and the three that cannot be are listed with their reasons.
 #[test]
-fn text_logs_of_other_tools_in_words() {
+fn logs_of_other_tools_in_words() {
     let data = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("flightlog/tests/data");
     let out = bin()
         .current_dir(&data)
-        .args(["flights", "ardupilot-text", "px4-ulog2csv"])
+        .args([
+            "flights",
+            "ardupilot-text",
+            "px4-ulog2csv",
+            "tlog/dronekit+dronekit-python",
+            "tlog/clydemcqueen+ardusub_log_tools",
+            "tlog/ArduPilot+UAVLogViewer",
+        ])
         .output()
         .unwrap();
     assert!(

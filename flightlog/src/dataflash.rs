@@ -1117,6 +1117,87 @@ fn vehicle(
     }
 }
 
+/// What an ArduPilot log says about itself, from its text messages (`MSG`, or a telemetry
+/// log's `STATUSTEXT`) and parameters: firmware and board, the vehicle and frame, and the
+/// battery's cells (as found by the caller), capacity, cut-off and arm voltages, and the hover
+/// throttle. Shared by the DataFlash readers and the telemetry-log reader.
+pub(crate) fn ardupilot_info(
+    messages: &[String],
+    params: &HashMap<String, f64>,
+    cells: Option<&(u32, String)>,
+) -> LogInfo {
+    let firmware = messages
+        .iter()
+        .find(|m| {
+            [
+                "ArduCopter",
+                "ArduPlane",
+                "ArduRover",
+                "ArduSub",
+                "APM:",
+                "Blimp",
+                "AntennaTracker",
+            ]
+            .iter()
+            .any(|p| m.starts_with(p))
+        })
+        .cloned();
+    let hardware = messages
+        .iter()
+        .find(|m| {
+            m.split(' ').count() == 4
+                && m.split(' ')
+                    .skip(1)
+                    .all(|w| w.chars().all(|c| c.is_ascii_hexdigit()))
+        })
+        .map(|m| m.split(' ').next().unwrap_or_default().to_owned());
+    let (vehicle, frame) = vehicle(firmware.as_deref(), messages, params);
+    let mut info = LogInfo {
+        firmware,
+        hardware,
+        ..LogInfo::default()
+    };
+    if let Some((c, origin)) = cells {
+        info.set("cells", origin.clone(), |m| m.cells = Some(*c));
+    }
+    let p = |name: &str, ok: &dyn Fn(f64) -> bool| params.get(name).copied().filter(|&v| ok(v));
+    if let Some(v) = p("BATT_CAPACITY", &|v| v > 0.0) {
+        info.set("capacity_mah", "BATT_CAPACITY", |m| {
+            m.capacity_mah = Some(v)
+        });
+    }
+    if let Some(v) = p("BATT_LOW_VOLT", &|v| v > 0.0) {
+        info.set("cutoff_voltage_v", "BATT_LOW_VOLT", |m| {
+            m.cutoff_voltage_v = Some(v);
+        });
+    }
+    if let Some(v) = p("BATT_ARM_VOLT", &|v| v > 0.0) {
+        info.set("arm_voltage_v", "BATT_ARM_VOLT", |m| {
+            m.arm_voltage_v = Some(v)
+        });
+    }
+    if let Some(v) = p("MOT_THST_HOVER", &|v| v > 0.0 && v <= 1.0) {
+        info.set("hover_throttle", "MOT_THST_HOVER", |m| {
+            m.hover_throttle = Some(v);
+        });
+    } else if let Some(v) = p("THR_MID", &|v| v > 0.0 && v <= 1000.0) {
+        info.set("hover_throttle", "THR_MID ÷ 1000", |m| {
+            m.hover_throttle = Some(v / 1000.0);
+        });
+    }
+    if let Some(v) = &vehicle {
+        info.set("vehicle", v.description.clone(), |m| {
+            m.vehicle = Some(v.kind)
+        });
+    }
+    if let (Some(f), Some(v)) = (frame, &vehicle) {
+        info.set("frame", v.description.clone(), |m| m.frame = Some(f));
+    }
+    info.derive_energy();
+    info.vehicle = vehicle;
+    info
+}
+
 /// Parses a `.bin` into a flight's samples.
 pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError> {
     decode(&DataFlash::parse(bytes, path)?, path)
@@ -1161,81 +1242,13 @@ fn decode(log: &DataFlash<'_>, path: &Path) -> Result<Decoded, FlightLogError> {
     let mut messages = log.texts("MSG", "Message");
     messages.extend(log.preamble.iter().cloned());
     let params = log.parameters();
-    let firmware = messages
-        .iter()
-        .find(|m| {
-            [
-                "ArduCopter",
-                "ArduPlane",
-                "ArduRover",
-                "ArduSub",
-                "APM:",
-                "Blimp",
-                "AntennaTracker",
-            ]
-            .iter()
-            .any(|p| m.starts_with(p))
-        })
-        .cloned();
-    let hardware = messages
-        .iter()
-        .find(|m| {
-            m.split(' ').count() == 4
-                && m.split(' ')
-                    .skip(1)
-                    .all(|w| w.chars().all(|c| c.is_ascii_hexdigit()))
-        })
-        .map(|m| m.split(' ').next().unwrap_or_default().to_owned());
-    let (vehicle, frame) = vehicle(firmware.as_deref(), &messages, &params);
-    let mut info = LogInfo {
-        firmware,
-        hardware,
-        ..LogInfo::default()
-    };
     let cells = chosen
         .info
         .cells
         .clone()
         .or_else(|| estimate_cells_for(&chosen.voltage_v));
-    if let Some((c, origin)) = &cells {
-        info.set("cells", origin.clone(), |m| m.cells = Some(*c));
-    }
-    let p = |name: &str, ok: &dyn Fn(f64) -> bool| params.get(name).copied().filter(|&v| ok(v));
-    if let Some(v) = p("BATT_CAPACITY", &|v| v > 0.0) {
-        info.set("capacity_mah", "BATT_CAPACITY", |m| {
-            m.capacity_mah = Some(v)
-        });
-    }
-    if let Some(v) = p("BATT_LOW_VOLT", &|v| v > 0.0) {
-        info.set("cutoff_voltage_v", "BATT_LOW_VOLT", |m| {
-            m.cutoff_voltage_v = Some(v);
-        });
-    }
-    if let Some(v) = p("BATT_ARM_VOLT", &|v| v > 0.0) {
-        info.set("arm_voltage_v", "BATT_ARM_VOLT", |m| {
-            m.arm_voltage_v = Some(v)
-        });
-    }
-    if let Some(v) = p("MOT_THST_HOVER", &|v| v > 0.0 && v <= 1.0) {
-        info.set("hover_throttle", "MOT_THST_HOVER", |m| {
-            m.hover_throttle = Some(v);
-        });
-    } else if let Some(v) = p("THR_MID", &|v| v > 0.0 && v <= 1000.0) {
-        info.set("hover_throttle", "THR_MID ÷ 1000", |m| {
-            m.hover_throttle = Some(v / 1000.0);
-        });
-    }
-    if let Some(v) = &vehicle {
-        info.set("vehicle", v.description.clone(), |m| {
-            m.vehicle = Some(v.kind)
-        });
-    }
-    if let (Some(f), Some(v)) = (frame, &vehicle) {
-        info.set("frame", v.description.clone(), |m| m.frame = Some(f));
-    }
-    info.derive_energy();
+    let mut info = ardupilot_info(&messages, &params, cells.as_ref());
     chosen.info.cells = cells;
-    info.vehicle = vehicle;
     info.battery = Some(chosen.info.clone());
 
     // Altitude and throttle: CTUN, else BARO for altitude.

@@ -162,7 +162,7 @@ pub enum FlightLogError {
     },
     /// A folder with nothing to read.
     #[error(
-        "{}: no flight logs (*.csv, *.ulg, *.bin, *.log, or a Crazyflie Real_path/ folder){}",
+        "{}: no flight logs (*.csv, *.ulg, *.bin, *.log, *.tlog, or a Crazyflie Real_path/ folder){}",
         path.display(),
         subfolder_hint(subfolders)
     )]

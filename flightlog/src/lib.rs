@@ -11,7 +11,9 @@
 //!   documented platform defaults ([`crazyflie`]);
 //! - a PX4 ULog `.ulg` ([`ulog`]) or an ArduPilot DataFlash `.bin` ([`dataflash`]), or the
 //!   same DataFlash as text (`.log`: Mission Planner's "convert .bin to .log", older
-//!   firmware's text logs; [`dataflash::DataFlash::parse_text`]).
+//!   firmware's text logs; [`dataflash::DataFlash::parse_text`]);
+//! - a ground station's MAVLink telemetry log `.tlog` ([`tlog`]), when the autopilot's own
+//!   log is not at hand.
 //!
 //! A binary log's batteries (every ULog `battery_status` instance; DataFlash `BAT`, `BAT2`,
 //! ArduCopter 3.x `CURR` and `BCL`) go through one check ([`battery`]): a battery that is not
@@ -66,6 +68,7 @@ pub mod phase;
 mod resample;
 mod set;
 pub mod summary;
+pub mod tlog;
 pub mod ulog;
 
 pub use battery::{BatteryInfo, SkipReason, SkippedBattery};
@@ -183,6 +186,8 @@ pub enum LogFormat {
     /// ArduPilot DataFlash as text (`.log`: Mission Planner's conversion of a `.bin`, or older
     /// firmware's text logs).
     DataFlashText,
+    /// A ground station's MAVLink telemetry log (`.tlog`).
+    Tlog,
 }
 
 impl LogFormat {
@@ -195,6 +200,7 @@ impl LogFormat {
         match ext.as_deref() {
             Some("ulg") => Ok(Self::Ulog),
             Some("bin") => Ok(Self::DataFlash),
+            Some("tlog") => Ok(Self::Tlog),
             Some("log" | "txt") if dataflash::is_text_log(bytes) => Ok(Self::DataFlashText),
             Some("log") => Err(FlightLogError::UnknownFormat {
                 path: path.to_owned(),
@@ -207,9 +213,10 @@ impl LogFormat {
             _ if bytes.starts_with(&ulog::MAGIC) => Ok(Self::Ulog),
             _ if bytes.starts_with(&dataflash::MAGIC) => Ok(Self::DataFlash),
             _ if dataflash::is_text_log(bytes) => Ok(Self::DataFlashText),
+            _ if tlog::looks_like_tlog(bytes) => Ok(Self::Tlog),
             _ => Err(FlightLogError::UnknownFormat {
                 path: path.to_owned(),
-                message: "not a .csv, .ulg, .bin or text .log flight log".to_owned(),
+                message: "not a .csv, .ulg, .bin, text .log or .tlog flight log".to_owned(),
             }),
         }
     }
@@ -268,6 +275,7 @@ impl Flight {
             LogFormat::Ulog => ulog::parse(bytes, source)?,
             LogFormat::DataFlash => dataflash::parse(bytes, source)?,
             LogFormat::DataFlashText => dataflash::parse_text(bytes, source)?,
+            LogFormat::Tlog => tlog::parse(bytes, source)?,
         };
         let below = match format {
             LogFormat::Crazyflie => vec![crazyflie::platform_layer()],

@@ -48,7 +48,7 @@ pub struct FlightSet {
 /// Whether a path has a flight-log extension.
 fn is_log(path: &Path) -> bool {
     path.extension().and_then(|e| e.to_str()).is_some_and(|e| {
-        ["csv", "ulg", "bin", "log"]
+        ["csv", "ulg", "bin", "log", "tlog"]
             .iter()
             .any(|x| e.eq_ignore_ascii_case(x))
     })
@@ -115,7 +115,7 @@ fn list(dir: &Path) -> Result<Vec<PathBuf>, FlightLogError> {
 }
 
 impl FlightSet {
-    /// Reads a flight folder: every `*.csv`, `*.ulg`, `*.bin` and `*.log` in it (or, for the Crazyflie
+    /// Reads a flight folder: every `*.csv`, `*.ulg`, `*.bin`, `*.log` and `*.tlog` in it (or, for the Crazyflie
     /// dataset's layout, every `Real_path/*.csv` with its planned trajectory), each with its
     /// sidecar `NAME.toml` merged over the folder's `flights.toml`.
     ///

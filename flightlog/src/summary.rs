@@ -98,6 +98,7 @@ pub fn format_name(format: LogFormat) -> &'static str {
         LogFormat::Ulog => "ulog",
         LogFormat::DataFlash => "dataflash",
         LogFormat::DataFlashText => "dataflash-text",
+        LogFormat::Tlog => "tlog",
     }
 }
 

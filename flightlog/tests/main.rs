@@ -23,6 +23,8 @@ mod never_panics;
 mod real_logs;
 #[path = "real_text_logs.rs"]
 mod real_text_logs;
+#[path = "real_tlogs.rs"]
+mod real_tlogs;
 #[path = "set.rs"]
 mod set;
 #[path = "ulog.rs"]

@@ -14,13 +14,29 @@ use flightlog::phase::{self, Signals};
 use flightlog::{Flight, FlightMeta, LogFormat};
 use proptest::prelude::*;
 
-const FORMATS: [LogFormat; 5] = [
+const FORMATS: [LogFormat; 6] = [
     LogFormat::Csv,
     LogFormat::Crazyflie,
     LogFormat::Ulog,
     LogFormat::DataFlash,
     LogFormat::DataFlashText,
+    LogFormat::Tlog,
 ];
+
+/// The first 40 kB of a real telemetry log (MAVLink 1, `tests/data/tlog/`): a flight of its own.
+fn valid_tlog() -> Vec<u8> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/tlog/dronekit+dronekit-python/flight.tlog");
+    let mut bytes = std::fs::read(path).unwrap();
+    bytes.truncate(40_000);
+    bytes
+}
+
+#[test]
+fn the_tlog_that_is_corrupted_is_a_flight() {
+    let f = Flight::parse(&valid_tlog(), Path::new("t.tlog"), LogFormat::Tlog).unwrap();
+    assert!(f.samples.len() >= 10, "{}", f.samples.len());
+}
 
 /// A small ArduPilot text log: BAT at 10 Hz, a CTUN, a MSG with commas, a PARM.
 fn valid_text_log() -> String {
@@ -174,6 +190,7 @@ proptest! {
     ) {
         check(&corrupt(&valid_ulog(), &edits, cut, &tail), LogFormat::Ulog);
         check(&corrupt(&valid_dataflash(), &edits, cut, &tail), LogFormat::DataFlash);
+        check(&corrupt(&valid_tlog(), &edits, cut, &tail), LogFormat::Tlog);
     }
 
     #[test]

@@ -263,6 +263,13 @@ fn binary_kind(bytes: &[u8]) -> Option<(&'static str, &'static str)> {
         Some(("a PX4 ULog flight log", FLIGHT_LOG))
     } else if bytes.starts_with(&[0xA3, 0x95]) {
         Some(("an ArduPilot DataFlash flight log", FLIGHT_LOG))
+    } else if bytes.get(..9).is_some_and(|b| {
+        // A MAVLink telemetry log: a time of reception (µs since 1970, 2000–2100), then a
+        // MAVLink 1 or 2 start byte.
+        let t = u64::from_be_bytes([b[0], b[1], b[2], b[3], b[4], b[5], b[6], b[7]]);
+        (946_684_800_000_000..4_102_444_800_000_000).contains(&t) && matches!(b[8], 0xFE | 0xFD)
+    }) {
+        Some(("a MAVLink telemetry log (.tlog)", FLIGHT_LOG))
     } else if bytes.trim_ascii_start().starts_with(b"FMT, 128,") {
         // Every converter of a `.bin` to text opens with the FMT message's own definition.
         Some(("an ArduPilot DataFlash flight log as text", FLIGHT_LOG))
@@ -881,6 +888,12 @@ mod tests {
         .unwrap_err();
         assert!(e.to_string().starts_with(
             "00000042.log: an ArduPilot DataFlash flight log as text, not a CSV table; flight logs"
+        ));
+        let mut tlog = 1_436_056_003_000_000u64.to_be_bytes().to_vec();
+        tlog.extend([0xFE, 9, 0, 255, 0, 0]);
+        let e = Table::parse(&tlog, "flight.tlog").unwrap_err();
+        assert!(e.to_string().starts_with(
+            "flight.tlog: a MAVLink telemetry log (.tlog), not a CSV table; flight logs"
         ));
         // Text that is not UTF-8 (a Latin-1 degree sign in a comment) is still a table.
         let t = Table::parse(b"# rig at 20 \xB0C\nthrust_g,power_w\n10,1.5\n", "l.csv").unwrap();

@@ -10,7 +10,7 @@ use flightlog::summary::{FlightSummary, SetSummary};
 use crate::output;
 
 /// Inspect flight logs (folders or files: CSV with sidecar TOML, PX4 .ulg, ArduPilot .bin or
-/// its text .log, the Crazyflie dataset): format, span, rate, voltage and current, energy drawn, phases and
+/// its text .log, a ground station's MAVLink .tlog, the Crazyflie dataset): format, span, rate, voltage and current, energy drawn, phases and
 /// metadata with their sources, warnings, and every skipped file with its reason.
 #[derive(Debug, clap::Args)]
 pub struct Args {

@@ -18,7 +18,8 @@ use gap::logs::{
 use crate::output::{self, Table};
 
 /// Diagnose the sim-to-real gap of a flight set (folders or log files: CSV with sidecar TOML,
-/// PX4 .ulg, ArduPilot .bin or its text .log, or the Crazyflie dataset's folder).
+/// PX4 .ulg, ArduPilot .bin or its text .log, a MAVLink .tlog, or the Crazyflie dataset's
+/// folder).
 #[derive(Debug, clap::Args)]
 pub struct Args {
     /// Flight folders or files to train on.

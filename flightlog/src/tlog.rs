@@ -1,0 +1,560 @@
+//! MAVLink telemetry logs (`.tlog`): what a ground station (Mission Planner, MAVProxy,
+//! QGroundControl) recorded of a vehicle's telemetry, when the autopilot's own log is not at
+//! hand. A bounds-checked reader of the few messages a flight needs.
+//!
+//! A telemetry log is a sequence of `{u64 big-endian time of reception, µs since 1970;
+//! MAVLink packet}`. A packet is MAVLink 1 (`0xFE`, length, sequence, system, component,
+//! message id, payload, CRC) or MAVLink 2 (`0xFD`, length, incompatibility and compatibility
+//! flags, sequence, system, component, 3-byte message id, payload with its trailing zeros cut,
+//! CRC, and a 13-byte signature when flagged). The checksum (X.25 over the header from the
+//! length to the payload, then the message's `CRC_EXTRA`) is checked for every message read
+//! here; a packet that fails it, or bytes that are not a packet, are skipped and counted (the
+//! reader resynchronises on the next timestamp and start byte).
+//!
+//! Read, from the vehicle (the system that sends the battery): `SYS_STATUS` (`voltage_battery`
+//! mV, `current_battery` cA, −1 unknown, `battery_remaining` %) as the battery, else
+//! `BATTERY_STATUS` (its cells' voltages summed, `current_battery` cA) per battery `id`;
+//! `GLOBAL_POSITION_INT.relative_alt` (mm) as altitude and `VFR_HUD.throttle` (%) as throttle,
+//! both interpolated onto the battery's times; `HEARTBEAT` for the vehicle type and
+//! autopilot; `STATUSTEXT` and `PARAM_VALUE` for what an ArduPilot log says about itself
+//! (firmware, frame, `BATT_CAPACITY`, …, as in [`crate::dataflash`]). Time is the ground
+//! station's time of reception from the battery's first message, s: a telemetry link drops
+//! packets, so its rate is what arrived.
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use crate::battery::{self, Track};
+use crate::{Decoded, FlightLogError, LogInfo, Samples, Vehicle, VehicleKind};
+
+/// Start byte of a MAVLink 1 packet.
+pub const V1: u8 = 0xFE;
+/// Start byte of a MAVLink 2 packet.
+pub const V2: u8 = 0xFD;
+
+/// Message ids read, with their `CRC_EXTRA` (MAVLink's `common.xml`) and the payload length
+/// they are read at (MAVLink 2 cuts trailing zeros; a shorter payload is zero-extended).
+const HEARTBEAT: u32 = 0;
+const SYS_STATUS: u32 = 1;
+const PARAM_VALUE: u32 = 22;
+const GLOBAL_POSITION_INT: u32 = 33;
+const VFR_HUD: u32 = 74;
+const BATTERY_STATUS: u32 = 147;
+const STATUSTEXT: u32 = 253;
+
+/// `CRC_EXTRA` and the length read, of a message this reader reads.
+fn known(msg_id: u32) -> Option<(u8, usize)> {
+    Some(match msg_id {
+        HEARTBEAT => (50, 9),
+        SYS_STATUS => (124, 31),
+        PARAM_VALUE => (220, 25),
+        GLOBAL_POSITION_INT => (104, 28),
+        VFR_HUD => (20, 20),
+        BATTERY_STATUS => (154, 49),
+        STATUSTEXT => (83, 51),
+        _ => return None,
+    })
+}
+
+/// The X.25 checksum (CRC-16/MCRF4XX) MAVLink uses, accumulated over `bytes`.
+pub fn crc_x25(mut crc: u16, bytes: &[u8]) -> u16 {
+    for &b in bytes {
+        let mut tmp = b ^ (crc & 0xFF) as u8;
+        tmp ^= tmp << 4;
+        crc = (crc >> 8) ^ (u16::from(tmp) << 8) ^ (u16::from(tmp) << 3) ^ (u16::from(tmp) >> 4);
+    }
+    crc
+}
+
+/// Earliest and latest plausible reception times, µs since 1970 (2000 and 2100): a timestamp
+/// outside them is not one.
+const TIME_RANGE_US: std::ops::Range<u64> = 946_684_800_000_000..4_102_444_800_000_000;
+
+/// One packet of a message this reader reads.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Packet {
+    /// Byte offset of its timestamp in the file.
+    pub offset: u64,
+    /// Time of reception, µs since 1970.
+    pub time_us: u64,
+    /// Sending system and component.
+    pub system: u8,
+    /// Sending component.
+    pub component: u8,
+    /// Message id.
+    pub msg_id: u32,
+    /// Payload, zero-extended to the length this reader reads it at.
+    pub payload: Vec<u8>,
+}
+
+/// The packets of a telemetry log that this reader reads, and what was skipped.
+#[derive(Debug, Default)]
+pub struct Tlog {
+    /// Packets of the messages read, in file order.
+    pub packets: Vec<Packet>,
+    /// Packets of other messages (not checked, not read).
+    pub others: usize,
+    /// What was skipped (bytes that are not a packet, failed checksums, a truncated tail).
+    pub warnings: Vec<String>,
+}
+
+/// Whether bytes start like a telemetry log: a plausible timestamp, then a MAVLink start byte.
+pub fn looks_like_tlog(bytes: &[u8]) -> bool {
+    bytes.get(..9).is_some_and(|b| {
+        let t = u64::from_be_bytes(b[..8].try_into().unwrap_or_default());
+        TIME_RANGE_US.contains(&t) && (b[8] == V1 || b[8] == V2)
+    })
+}
+
+impl Tlog {
+    /// Parses a telemetry log held in memory; `path` names it in errors.
+    pub fn parse(bytes: &[u8], path: &Path) -> Result<Self, FlightLogError> {
+        if !looks_like_tlog(bytes) {
+            return Err(FlightLogError::binary(
+                path,
+                0,
+                "header",
+                "not a MAVLink telemetry log (no timestamp and MAVLink start byte at its start)"
+                    .to_owned(),
+            ));
+        }
+        let mut log = Tlog::default();
+        let (mut skipped, mut first_skip, mut bad_crc) = (0usize, None::<usize>, 0usize);
+        let mut pos = 0usize;
+        while pos < bytes.len() {
+            match packet_at(bytes, pos) {
+                Step::Packet(p, len) => {
+                    log.packets.push(p);
+                    pos += len;
+                }
+                Step::Other(len) => {
+                    log.others += 1;
+                    pos += len;
+                }
+                Step::Truncated => {
+                    log.warnings.push(format!(
+                        "byte {pos}: final packet truncated at the end; ignored"
+                    ));
+                    break;
+                }
+                step @ (Step::BadCrc | Step::NotAPacket) => {
+                    if matches!(step, Step::BadCrc) {
+                        bad_crc += 1;
+                    }
+                    first_skip.get_or_insert(pos);
+                    // Resynchronise: the next byte that could start a timestamp and packet.
+                    let next = (pos + 1..bytes.len())
+                        .find(|&p| looks_like_tlog(&bytes[p..]))
+                        .unwrap_or(bytes.len());
+                    skipped += next - pos;
+                    pos = next;
+                }
+            }
+        }
+        if skipped > 0 {
+            log.warnings.push(format!(
+                "{skipped} byte(s) that are not a packet skipped (first at byte {}; {bad_crc} packet(s) with a wrong checksum)",
+                first_skip.unwrap_or(0)
+            ));
+        }
+        Ok(log)
+    }
+}
+
+/// What is at a position of a telemetry log.
+enum Step {
+    /// A packet read, and its length with its timestamp.
+    Packet(Packet, usize),
+    /// A packet of a message not read, and its length.
+    Other(usize),
+    /// A packet whose checksum is wrong.
+    BadCrc,
+    /// Bytes that are not a timestamp and packet.
+    NotAPacket,
+    /// A packet cut by the end of the file.
+    Truncated,
+}
+
+fn packet_at(bytes: &[u8], pos: usize) -> Step {
+    let rest = &bytes[pos..];
+    if rest.len() < 9 {
+        return if rest.iter().all(|&b| b == 0) {
+            Step::Other(rest.len())
+        } else {
+            Step::Truncated
+        };
+    }
+    if !looks_like_tlog(rest) {
+        return Step::NotAPacket;
+    }
+    let time_us = u64::from_be_bytes(rest[..8].try_into().unwrap_or_default());
+    let frame = &rest[8..];
+    let (header, msg_id, system, component, signature) = match frame[0] {
+        V1 => {
+            let Some(h) = frame.get(..6) else {
+                return Step::Truncated;
+            };
+            (6usize, u32::from(h[5]), h[3], h[4], 0usize)
+        }
+        _ => {
+            let Some(h) = frame.get(..10) else {
+                return Step::Truncated;
+            };
+            let id = u32::from(h[7]) | u32::from(h[8]) << 8 | u32::from(h[9]) << 16;
+            (10usize, id, h[5], h[6], if h[2] & 1 == 1 { 13 } else { 0 })
+        }
+    };
+    let payload_len = usize::from(frame[1]);
+    let total = 8 + header + payload_len + 2 + signature;
+    if rest.len() < total {
+        return Step::Truncated;
+    }
+    let Some((extra, read_len)) = known(msg_id) else {
+        return Step::Other(total);
+    };
+    let crc_end = header + payload_len;
+    let crc = crc_x25(crc_x25(0xFFFF, &frame[1..crc_end]), &[extra]);
+    if crc.to_le_bytes() != frame[crc_end..crc_end + 2] {
+        return Step::BadCrc;
+    }
+    let mut payload = frame[header..crc_end].to_vec();
+    payload.resize(payload_len.max(read_len), 0);
+    Step::Packet(
+        Packet {
+            offset: pos as u64,
+            time_us,
+            system,
+            component,
+            msg_id,
+            payload,
+        },
+        total,
+    )
+}
+
+fn u16_at(p: &[u8], at: usize) -> u16 {
+    u16::from_le_bytes([p[at], p[at + 1]])
+}
+
+fn i16_at(p: &[u8], at: usize) -> i16 {
+    i16::from_le_bytes([p[at], p[at + 1]])
+}
+
+fn i32_at(p: &[u8], at: usize) -> i32 {
+    i32::from_le_bytes([p[at], p[at + 1], p[at + 2], p[at + 3]])
+}
+
+fn f32_at(p: &[u8], at: usize) -> f32 {
+    f32::from_le_bytes([p[at], p[at + 1], p[at + 2], p[at + 3]])
+}
+
+/// Text of a NUL-padded `char[n]`.
+fn text(bytes: &[u8]) -> String {
+    let end = bytes.iter().position(|&b| b == 0).unwrap_or(bytes.len());
+    String::from_utf8_lossy(&bytes[..end]).trim().to_owned()
+}
+
+/// The kind of vehicle a `HEARTBEAT.type` (`MAV_TYPE`) names, and its name.
+fn mav_type(t: u8) -> Option<(VehicleKind, &'static str)> {
+    Some(match t {
+        1 => (VehicleKind::FixedWing, "fixed wing"),
+        2 => (VehicleKind::Multirotor, "quadrotor"),
+        3 => (VehicleKind::Multirotor, "coaxial"),
+        4 => (VehicleKind::Helicopter, "helicopter"),
+        10 => (VehicleKind::Rover, "ground rover"),
+        11 => (VehicleKind::Rover, "surface boat"),
+        12 => (VehicleKind::Rover, "submarine"),
+        13 => (VehicleKind::Multirotor, "hexarotor"),
+        14 => (VehicleKind::Multirotor, "octorotor"),
+        15 => (VehicleKind::Multirotor, "tricopter"),
+        19..=25 => (VehicleKind::Vtol, "VTOL"),
+        29 => (VehicleKind::Multirotor, "dodecarotor"),
+        35 => (VehicleKind::Multirotor, "decarotor"),
+        _ => return None,
+    })
+}
+
+/// A telemetry link drops out (range, a restart of the autopilot or of the ground station):
+/// where the battery's messages stop for longer than [`crate::MAX_GAP_S`], the log is cut into
+/// stretches and the one that drew the most charge (without a current, the longest) is kept,
+/// its time from its own first sample. Returns what was done, when anything was.
+fn keep_one_stretch(chosen: &mut battery::Chosen) -> Option<String> {
+    let t = &chosen.time_s;
+    let mut bounds = vec![0usize];
+    bounds.extend((1..t.len()).filter(|&i| t[i] - t[i - 1] > crate::MAX_GAP_S));
+    bounds.push(t.len());
+    if bounds.len() <= 2 {
+        return None;
+    }
+    let worth = |a: usize, b: usize| match &chosen.current_a {
+        Some(c) => (a + 1..b)
+            .map(|k| 0.5 * (c[k] + c[k - 1]) * (t[k] - t[k - 1]))
+            .sum::<f64>(),
+        None => t[b - 1] - t[a],
+    };
+    let stretches: Vec<(usize, usize)> = bounds.windows(2).map(|w| (w[0], w[1])).collect();
+    let &(a, b) = stretches
+        .iter()
+        .max_by(|x, y| worth(x.0, x.1).total_cmp(&worth(y.0, y.1)))?;
+    let (from, to) = (t[a], t[b - 1]);
+    let shift = t[a];
+    chosen.time_s = t[a..b].iter().map(|x| x - shift).collect();
+    chosen.t0_s += shift;
+    chosen.offsets = chosen.offsets[a..b].to_vec();
+    chosen.voltage_v = chosen.voltage_v[a..b].to_vec();
+    if let Some(c) = chosen.current_a.as_mut() {
+        *c = c[a..b].to_vec();
+    }
+    Some(format!(
+        "the telemetry stops for more than {} s {} time(s): kept {from:.1}–{to:.1} s of the log, the stretch that drew the most {}; {} other stretch(es) left out",
+        crate::MAX_GAP_S,
+        stretches.len() - 1,
+        if chosen.current_a.is_some() {
+            "charge"
+        } else {
+            "time (no current)"
+        },
+        stretches.len() - 1
+    ))
+}
+
+/// Parses a `.tlog` into a flight's samples.
+pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError> {
+    let log = Tlog::parse(bytes, path)?;
+    let mut warnings = log.warnings.clone();
+    // The vehicle: the system that sends the battery.
+    let mut battery_counts: HashMap<u8, usize> = HashMap::new();
+    for p in &log.packets {
+        if matches!(p.msg_id, SYS_STATUS | BATTERY_STATUS) {
+            *battery_counts.entry(p.system).or_default() += 1;
+        }
+    }
+    let mut by_count: Vec<(u8, usize)> = battery_counts.into_iter().collect();
+    by_count.sort_by_key(|&(s, n)| (std::cmp::Reverse(n), s));
+    let Some(&(system, _)) = by_count.first() else {
+        let mut seen: Vec<u32> = log.packets.iter().map(|p| p.msg_id).collect();
+        seen.sort_unstable();
+        seen.dedup();
+        return Err(FlightLogError::MissingData {
+            path: path.to_owned(),
+            field: "SYS_STATUS or BATTERY_STATUS (battery voltage)".to_owned(),
+            message: format!(
+                "the log has none ({} packets of the messages read: ids {seen:?}; {} of others)",
+                log.packets.len(),
+                log.others
+            ),
+        });
+    };
+    if by_count.len() > 1 {
+        warnings.push(format!(
+            "battery messages from {} systems; system {system} (the most) read",
+            by_count.len()
+        ));
+    }
+    let of = |id: u32| {
+        log.packets
+            .iter()
+            .filter(move |p| p.system == system && p.msg_id == id)
+    };
+    let seconds = |p: &Packet| p.time_us as f64 * 1e-6;
+
+    // Batteries: SYS_STATUS, then BATTERY_STATUS per id.
+    let mut tracks = Vec::new();
+    let sys: Vec<&Packet> = of(SYS_STATUS).collect();
+    if !sys.is_empty() {
+        tracks.push(Track {
+            name: "SYS_STATUS".to_owned(),
+            offsets: sys.iter().map(|p| p.offset).collect(),
+            time_s: sys.iter().map(|p| seconds(p)).collect(),
+            voltage_v: sys
+                .iter()
+                .map(|p| match u16_at(&p.payload, 14) {
+                    0 | u16::MAX => f64::NAN,
+                    mv => f64::from(mv) / 1000.0,
+                })
+                .collect(),
+            current_a: sys
+                .iter()
+                .map(|p| match i16_at(&p.payload, 16) {
+                    -1 => None,
+                    ca => Some(f64::from(ca) / 100.0),
+                })
+                .collect(),
+            connected: None,
+            remaining: Some(
+                sys.iter()
+                    .map(|p| match p.payload[30] as i8 {
+                        r @ 0..=100 => f64::from(r) / 100.0,
+                        _ => -1.0,
+                    })
+                    .collect(),
+            ),
+            warning: None,
+            cells: None,
+        });
+    }
+    let mut ids: Vec<u8> = of(BATTERY_STATUS).map(|p| p.payload[32]).collect();
+    ids.sort_unstable();
+    ids.dedup();
+    for id in ids {
+        let b: Vec<&Packet> = of(BATTERY_STATUS).filter(|p| p.payload[32] == id).collect();
+        let cells_in = |p: &Packet| -> Vec<u16> {
+            let main = (0..10).map(|k| u16_at(&p.payload, 10 + 2 * k));
+            let ext = (0..4).map(|k| u16_at(&p.payload, 41 + 2 * k));
+            main.chain(ext)
+                .filter(|&mv| mv != u16::MAX && mv != 0)
+                .collect()
+        };
+        tracks.push(Track {
+            name: format!("BATTERY_STATUS id {id}"),
+            offsets: b.iter().map(|p| p.offset).collect(),
+            time_s: b.iter().map(|p| seconds(p)).collect(),
+            voltage_v: b
+                .iter()
+                .map(|p| match cells_in(p) {
+                    c if c.is_empty() => f64::NAN,
+                    c => c.iter().map(|&mv| f64::from(mv)).sum::<f64>() / 1000.0,
+                })
+                .collect(),
+            current_a: b
+                .iter()
+                .map(|p| match i16_at(&p.payload, 30) {
+                    -1 => None,
+                    ca => Some(f64::from(ca) / 100.0),
+                })
+                .collect(),
+            connected: None,
+            remaining: Some(
+                b.iter()
+                    .map(|p| match p.payload[35] as i8 {
+                        r @ 0..=100 => f64::from(r) / 100.0,
+                        _ => -1.0,
+                    })
+                    .collect(),
+            ),
+            warning: None,
+            cells: None,
+        });
+    }
+    let available = {
+        let mut names: Vec<&str> = log
+            .packets
+            .iter()
+            .filter(|p| p.system == system)
+            .map(|p| match p.msg_id {
+                HEARTBEAT => "HEARTBEAT",
+                SYS_STATUS => "SYS_STATUS",
+                PARAM_VALUE => "PARAM_VALUE",
+                GLOBAL_POSITION_INT => "GLOBAL_POSITION_INT",
+                VFR_HUD => "VFR_HUD",
+                BATTERY_STATUS => "BATTERY_STATUS",
+                _ => "STATUSTEXT",
+            })
+            .collect();
+        names.sort_unstable();
+        names.dedup();
+        names.join(", ")
+    };
+    let mut chosen = battery::choose(
+        path,
+        &tracks,
+        "SYS_STATUS or BATTERY_STATUS (battery voltage)",
+        &available,
+    )?;
+    warnings.append(&mut chosen.warnings);
+    if let Some(note) = keep_one_stretch(&mut chosen) {
+        warnings.push(note);
+    }
+    let t0 = chosen.t0_s;
+    let time_s = chosen.time_s.clone();
+    crate::check_time(
+        path,
+        &time_s,
+        &format!("{} (time of reception)", chosen.info.battery),
+        |i| format!("byte {}", chosen.offsets.get(i).copied().unwrap_or(0)),
+    )?;
+
+    // What the log says about itself.
+    let heartbeat = of(HEARTBEAT)
+        .map(|p| (p.payload[4], p.payload[5]))
+        .find(|&(_, autopilot)| autopilot != 8);
+    let messages: Vec<String> = of(STATUSTEXT).map(|p| text(&p.payload[1..51])).collect();
+    let mut params: HashMap<String, f64> = HashMap::new();
+    for p in of(PARAM_VALUE) {
+        let name = text(&p.payload[8..24]);
+        let value = f64::from(f32_at(&p.payload, 0));
+        if !name.is_empty() && value.is_finite() {
+            params.entry(name).or_insert(value);
+        }
+    }
+    let cells = battery::estimate_cells(&chosen.voltage_v);
+    let mut info = match heartbeat {
+        Some((_, 3)) => crate::dataflash::ardupilot_info(&messages, &params, cells.as_ref()),
+        _ => {
+            let mut info = LogInfo::default();
+            if let Some((c, origin)) = &cells {
+                info.set("cells", origin.clone(), |m| m.cells = Some(*c));
+            }
+            info
+        }
+    };
+    if info.vehicle.is_none()
+        && let Some((t, autopilot)) = heartbeat
+        && let Some((kind, name)) = mav_type(t)
+    {
+        let who = match autopilot {
+            3 => "ArduPilot",
+            12 => "PX4",
+            _ => "autopilot",
+        };
+        let description = format!("{who} {name} (HEARTBEAT type {t})");
+        info.set("vehicle", description.clone(), |m| m.vehicle = Some(kind));
+        info.vehicle = Some(Vehicle { kind, description });
+    }
+    chosen.info.cells = cells;
+    info.battery = Some(chosen.info.clone());
+
+    // Altitude and throttle, onto the battery's times.
+    let series = |id: u32, value: &dyn Fn(&[u8]) -> f64| {
+        let (t, v): (Vec<f64>, Vec<f64>) = of(id)
+            .map(|p| (seconds(p) - t0, value(&p.payload)))
+            .filter(|(t, v)| t.is_finite() && v.is_finite())
+            .unzip();
+        crate::resample::linear(&t, &v, &time_s)
+    };
+    let altitude_m = series(GLOBAL_POSITION_INT, &|p| f64::from(i32_at(p, 16)) / 1000.0);
+    let throttle = series(VFR_HUD, &|p| f64::from(u16_at(p, 18)) / 100.0);
+    Ok(Decoded {
+        samples: Samples {
+            time_s,
+            voltage_v: chosen.voltage_v,
+            current_a: chosen.current_a,
+            phase: None,
+            altitude_m,
+            throttle,
+            landed: None,
+            vtol_transition: None,
+        },
+        landed: None,
+        warnings,
+        info,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_checksum_is_mavlinks() {
+        // CRC-16/MCRF4XX check value.
+        assert_eq!(crc_x25(0xFFFF, b"123456789"), 0x6F91);
+    }
+
+    #[test]
+    fn rejects_what_is_not_a_tlog() {
+        let e = Tlog::parse(b"\xA3\x95\x80", Path::new("x.tlog")).unwrap_err();
+        assert!(e.to_string().contains("not a MAVLink telemetry log"), "{e}");
+        assert!(!looks_like_tlog(&[0; 9]));
+    }
+}
