@@ -270,8 +270,13 @@ fn binary_kind(bytes: &[u8]) -> Option<(&'static str, &'static str)> {
         (946_684_800_000_000..4_102_444_800_000_000).contains(&t) && matches!(b[8], 0xFE | 0xFD)
     }) {
         Some(("a MAVLink telemetry log (.tlog)", FLIGHT_LOG))
-    } else if bytes.trim_ascii_start().starts_with(b"FMT, 128,") {
-        // Every converter of a `.bin` to text opens with the FMT message's own definition.
+    } else if bytes
+        .split(|&b| b == b'\n')
+        .take(20)
+        .any(|l| l.trim_ascii_start().starts_with(b"FMT, 128,"))
+    {
+        // Every converter of a `.bin` to text opens with the FMT message's own definition
+        // (APM 2's own text logs after a short banner).
         Some(("an ArduPilot DataFlash flight log as text", FLIGHT_LOG))
     } else {
         None
@@ -889,6 +894,16 @@ mod tests {
         assert!(e.to_string().starts_with(
             "00000042.log: an ArduPilot DataFlash flight log as text, not a CSV table; flight logs"
         ));
+        let e = Table::parse(
+            b"9\r\n\r\nArduCopter V3.1 (5c6503e2)\r\nFree RAM: 1044\r\nAPM 2\r\nFMT, 128, 89, FMT, BBnNZ, Type,Length,Name,Format\r\n",
+            "mechanical_fail.log",
+        )
+        .unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("an ArduPilot DataFlash flight log as text"),
+            "{e}"
+        );
         let mut tlog = 1_436_056_003_000_000u64.to_be_bytes().to_vec();
         tlog.extend([0xFE, 9, 0, 255, 0, 0]);
         let e = Table::parse(&tlog, "flight.tlog").unwrap_err();

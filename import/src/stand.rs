@@ -321,6 +321,27 @@ impl Table {
             .collect()
     }
 
+    /// Whether the header is a flight log's rather than a stand's: a column only flight logs
+    /// have (a flight controller's battery counters, altitude) and none with thrust, torque or
+    /// rotor speed in its name.
+    fn looks_like_a_flight_log(&self) -> bool {
+        let names: Vec<String> = self.header.iter().map(|c| c.to_lowercase()).collect();
+        let flight = [
+            "discharged_mah",
+            "remaining",
+            "altitude",
+            "altitude_m",
+            "vbatlatest",
+            "timeus",
+            "currtot",
+        ];
+        let stand = ["thrust", "torque", "rpm", "esc"];
+        names
+            .iter()
+            .any(|n| flight.iter().any(|f| n.starts_with(f)))
+            && !names.iter().any(|n| stand.iter().any(|s| n.contains(s)))
+    }
+
     /// Reads the mapped columns over the rows that pass every filter (and whose `valid` column,
     /// if any, is true), converted to canonical units.
     pub fn measurements(
@@ -333,7 +354,11 @@ impl Table {
             .as_deref()
             .ok_or_else(|| ImportError::MissingColumn {
                 source_name: self.source_name.clone(),
-                column: "for thrust (name it with --thrust)".into(),
+                column: if self.looks_like_a_flight_log() {
+                    "for thrust (name it with --thrust; with a battery's columns and none of a stand's, it looks like a flight log, which `hoverbench flights`, `gap` and `replay` read)".into()
+                } else {
+                    "for thrust (name it with --thrust)".into()
+                },
                 available: self.available(),
             })?;
         for f in filters {
@@ -1020,6 +1045,23 @@ mod tests {
         let o = sweep_with(&up_down).thrust_oddities();
         assert_eq!(o.len(), 1);
         assert_eq!((o[0].line(), o[0].thrust_g()), (13, -4.0));
+    }
+
+    #[test]
+    fn a_flight_log_without_thrust_is_named_as_one() {
+        let t = Table::parse(
+            b"timestamp,voltage_v,current_a,discharged_mah\n1,16,3,0\n2,16,3,1\n",
+            "battery_status_0.csv",
+        )
+        .unwrap();
+        let (map, _) = ColumnMap::detect(&t);
+        let e = t.measurements(&map, &[]).unwrap_err().to_string();
+        assert!(e.contains("it looks like a flight log"), "{e}");
+        // A stand's table without a thrust column is not one.
+        let t = Table::parse(b"time_s,voltage_v,current_a,rpm\n1,16,3,0\n", "s.csv").unwrap();
+        let (map, _) = ColumnMap::detect(&t);
+        let e = t.measurements(&map, &[]).unwrap_err().to_string();
+        assert!(!e.contains("flight log"), "{e}");
     }
 
     #[test]
