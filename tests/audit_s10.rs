@@ -74,7 +74,7 @@ fn replay_on_the_real_px4_and_ardupilot_logs_scores_none_as_the_readme_says() {
     ]);
     assert!(out.contains("skipped (9):"), "{out}");
     assert!(
-        err.contains("no flight was scored: all 9 skipped; the most common reason (3 of 9): flightreview_ekf_failure: ends at 23.97 V"),
+        err.contains("no flight was scored: all 9 skipped; the most common reason (4 of 9): flightreview_ekf_failure: ends at 23.97 V"),
         "{err}"
     );
     // Not scored, but flown where a method can run (session 15): the dronekit log's PX4 and

@@ -506,3 +506,32 @@ fn replay_eval_says_what_the_online_estimator_ran_with() {
     assert_eq!(v["online"]["thrust_limit_end"], true);
     assert_eq!(v["online"]["end_soc_sigma"], 0.04);
 }
+
+/// A real telemetry log flown past ArduCopter 3.2's low-battery voltage (`FS_BATT_VOLTAGE`,
+/// 10 V on 3 cells; `flightlog/tests/data/tlog`, Apache-2.0): it is scored, the baselines on
+/// its own samples; the online estimator and the static model say they need the vehicle,
+/// which the log does not give.
+#[test]
+fn a_real_telemetry_log_to_the_low_battery_voltage_is_scored() {
+    let v: Value = serde_json::from_str(&ok(&[
+        "replay",
+        "--params",
+        &params(),
+        "flightlog/tests/data/tlog/dronekit+dronekit-python/flight.tlog",
+        "--json",
+    ]))
+    .unwrap();
+    let flights = v["flights"].as_array().unwrap();
+    assert_eq!(flights.len(), 1);
+    let half = &flights[0]["checkpoints"][1];
+    assert_eq!(half["fraction"], 0.5);
+    let truth = half["true_remaining_s"].as_f64().unwrap();
+    assert!((truth - 284.0).abs() < 1.0, "{truth}");
+    for baseline in ["px4", "coulomb"] {
+        assert!(
+            half["baselines"][baseline].as_f64().unwrap() > 0.0,
+            "{half}"
+        );
+    }
+    assert!(half["predicted_remaining_s"].is_null(), "{half}");
+}

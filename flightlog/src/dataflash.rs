@@ -1170,6 +1170,11 @@ pub(crate) fn ardupilot_info(
         info.set("cutoff_voltage_v", "BATT_LOW_VOLT", |m| {
             m.cutoff_voltage_v = Some(v);
         });
+    } else if let Some(v) = p("FS_BATT_VOLTAGE", &|v| v > 0.0) {
+        // ArduCopter 3.0–3.3 (before BATT_LOW_VOLT): the voltage it calls a low battery.
+        info.set("cutoff_voltage_v", "FS_BATT_VOLTAGE", |m| {
+            m.cutoff_voltage_v = Some(v);
+        });
     }
     if let Some(v) = p("BATT_ARM_VOLT", &|v| v > 0.0) {
         info.set("arm_voltage_v", "BATT_ARM_VOLT", |m| {
