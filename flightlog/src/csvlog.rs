@@ -14,7 +14,8 @@
 //! (`time (us)`, `Voltage [V]`) or in the name (`TimeUS`). So a PX4 `ulog2csv` export of
 //! `battery_status` (`timestamp` in µs, `voltage_v`, `current_a`), Betaflight's
 //! `blackbox_decode` CSV (`time (us)`, `vbatLatest (V)`, `amperageLatest (A)`) and ArduPilot's
-//! `BAT` exported as CSV (`TimeUS`, `Volt`, `Curr`) read as they are. A column read so is
+//! `BAT` exported as CSV (`TimeUS`, `Volt`, `Curr`) and the Crazyflie client's log
+//! (`Timestamp` in ms, `pm.vbat`, `stateEstimate.z`) read as they are. A column read so is
 //! named in the flight's warnings. A PX4 export (its `discharged_mah` column) also gives the
 //! flight's `cells` (`cell_count`) and, when PX4 was told it, `capacity_mah` (`capacity`).
 
@@ -122,6 +123,20 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
         _ => true,
     });
     let ignored: Vec<String> = ignored.iter().map(|&i| names[i].clone()).collect();
+    // The Crazyflie client (cfclient, cflib) writes `Timestamp` in ms since power-on beside
+    // its `group.name` variables (`pm.vbat`).
+    if let Some(i) = index[0]
+        && names[i].eq_ignore_ascii_case("timestamp")
+        && names.iter().any(|n| n.eq_ignore_ascii_case("pm.vbat"))
+    {
+        scale[0] = 1e-3;
+        if let Some(r) = read_as
+            .iter_mut()
+            .find(|r| r.starts_with(&format!("{:?}", names[i])))
+        {
+            *r = format!("{:?} as time_s (ms, the Crazyflie client's)", names[i]);
+        }
+    }
     let require = |k: usize| {
         index[k].ok_or_else(|| FlightLogError::MissingColumn {
             path: path.to_owned(),
@@ -282,13 +297,15 @@ pub fn alias(header: &str) -> Option<(usize, f64)> {
         "timeus" => (0, Some("us"), true),
         "timems" => (0, Some("ms"), true),
         "voltage" | "volt" | "volts" | "vbat" | "battery_voltage" | "batteryvoltage"
-        | "bat_voltage" | "pack_voltage" => (1, None, false),
+        | "bat_voltage" | "pack_voltage" | "pm.vbat" => (1, None, false),
         "current" | "curr" | "amps" | "amp" | "amperage" | "battery_current" | "batterycurrent"
         | "bat_current" | "pack_current" => (2, None, false),
         // Betaflight's raw ADC units unless its decoder wrote a unit.
         "vbatlatest" if unit.is_some() => (1, None, false),
         "amperagelatest" if unit.is_some() => (2, None, false),
-        "altitude" | "alt" | "height" | "relative_alt" | "rel_alt" => (4, None, false),
+        "altitude" | "alt" | "height" | "relative_alt" | "rel_alt" | "stateestimate.z" => {
+            (4, None, false)
+        }
         _ => return None,
     };
     let unit = match (unit, default) {
@@ -482,6 +499,20 @@ mod tests {
         assert_eq!(d.samples.time_s, [0.0, 1.0]);
         let e = parse_str("vbatLatest,time (us)\n1600,0\n").unwrap_err();
         assert!(e.to_string().contains("no column \"voltage_v\""), "{e}");
+    }
+
+    #[test]
+    fn a_crazyflie_client_log_reads_its_timestamp_in_ms() {
+        let d = parse_str("Timestamp,pm.vbat,stateEstimate.z\n9103,3.74,0.0\n9113,3.73,0.01\n")
+            .unwrap();
+        assert_eq!(d.samples.time_s, [9.103, 9.113]);
+        assert_eq!(d.samples.voltage_v, [3.74, 3.73]);
+        assert_eq!(d.samples.altitude_m.unwrap(), [0.0, 0.01]);
+        assert!(
+            d.warnings[0].contains("ms, the Crazyflie client's"),
+            "{:?}",
+            d.warnings
+        );
     }
 
     proptest::proptest! {
