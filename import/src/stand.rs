@@ -112,12 +112,20 @@ impl ColumnMap {
             LogKind::Generic
         };
         let map = Self {
-            thrust: find(table, &["thrust_g", "thrust", "force"]),
-            voltage: find(table, &["voltage_v", "voltage", "volts", "volt"]),
-            current: find(table, &["current_a", "current", "amps", "amp"]),
+            // A stand built on a scale logs its reading as a weight (`weight[g]`).
+            thrust: find(table, &["thrust_g", "thrust", "force", "weight"]),
+            // Single letters (`v[V]`, `i[A]`, `p[W]`) as a power monitor's columns are named.
+            voltage: find(table, &["voltage_v", "voltage", "volts", "volt", "v", "u"]),
+            current: find(table, &["current_a", "current", "amps", "amp", "i"]),
             power: find(
                 table,
-                &["power_w", "Electrical Power", "electrical_power", "power"],
+                &[
+                    "power_w",
+                    "Electrical Power",
+                    "electrical_power",
+                    "power",
+                    "p",
+                ],
             ),
             throttle: find(
                 table,

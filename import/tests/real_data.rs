@@ -128,3 +128,38 @@ fn flight_logs_are_named_not_parsed_as_tables() {
         assert!(text.contains("hoverbench flights"), "{rel}: {text}");
     }
 }
+
+/// Bitcraze's Crazyflie 2.1 stand run (`tests/data/crazyflie-system-id`, MIT): a scale's
+/// `weight[g]` as thrust and a power monitor's `v[V]`, `i[A]`, `p[W]` beside the drone's own
+/// `vbat[V]`. The monitor's three columns must agree with each other, step by step (within
+/// 2 % and 0.1 W: at idle its power reads 0.07 W under its voltage × current).
+#[test]
+fn a_scale_and_power_monitor_stand_imports() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/crazyflie-system-id/cf21_stock2.csv");
+    let log = StandLog::read(&path, &StandOptions::default()).unwrap();
+    assert_eq!(log.kind, LogKind::Generic);
+    assert_eq!(log.columns.thrust.as_deref(), Some("weight[g]"));
+    assert_eq!(log.columns.voltage.as_deref(), Some("v[V]"));
+    assert_eq!(log.columns.current.as_deref(), Some("i[A]"));
+    assert_eq!(log.columns.power.as_deref(), Some("p[W]"));
+    assert!(log.power_logged);
+    assert_eq!(log.steps.len(), 17);
+    let top = log
+        .steps
+        .iter()
+        .map(|s| s.thrust_g)
+        .fold(f64::MIN, f64::max);
+    assert!((top - 29.39).abs() < 0.01, "{top}");
+    for s in &log.steps {
+        let (v, i, p) = (
+            s.voltage_v.unwrap(),
+            s.current_a.unwrap(),
+            s.power_w.unwrap(),
+        );
+        assert!(
+            (v * i - p).abs() <= 0.02 * p + 0.1,
+            "{v} V × {i} A vs {p} W"
+        );
+    }
+}
