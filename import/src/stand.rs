@@ -6,6 +6,11 @@
 //! names (`thrust_n`, `Current [mA]`). Units follow the column names (gf, kgf, N, lbf, mA, …) and
 //! are converted to g, V, A, W, N·m, s, rpm.
 //!
+//! A row with an empty cell in a column the curve needs (thrust, voltage, current, power,
+//! throttle) is left out, as is a speed or torque column empty in some of the rows kept: a
+//! stand that logs its sensors at different rates (Tyto's fast-sampled tests) leaves them; each
+//! is said in a note.
+//!
 //! [`Measurements::reduce_steps`] turns a step test into one row per settled step: samples are
 //! grouped by their throttle command, and each group's leading transient (samples far from the
 //! group's settled tail, judged against the tail's own noise) is dropped before averaging — no
@@ -373,7 +378,7 @@ impl Table {
             self.index(&f.column)?;
         }
         let valid = self.valid_rows()?;
-        let rows: Vec<usize> = (0..self.len())
+        let mut rows: Vec<usize> = (0..self.len())
             .filter(|&r| valid[r])
             .filter(|&r| {
                 filters
@@ -382,6 +387,32 @@ impl Table {
             })
             .collect();
         let mut notes = Vec::new();
+        // A stand that logs its sensors at different rates leaves cells empty in the rows of
+        // the others (Tyto's fast-sampled tests): a row with an empty cell in a column the curve
+        // needs is left out, and said so.
+        let core: Vec<&str> = [
+            Some(thrust_col),
+            map.voltage.as_deref(),
+            map.current.as_deref(),
+            map.power.as_deref(),
+            map.throttle.as_deref(),
+        ]
+        .into_iter()
+        .flatten()
+        .filter(|c| self.has(c) && rows.iter().any(|&r| !self.cell_text(r, c).is_empty()))
+        .collect();
+        let before = rows.len();
+        rows.retain(|&r| core.iter().all(|c| !self.cell_text(r, c).is_empty()));
+        if rows.len() < before && !rows.is_empty() {
+            notes.push(format!(
+                "{} of {before} row(s) left out for an empty cell in {} (sensors logged at different rates)",
+                before - rows.len(),
+                core.iter()
+                    .map(|c| format!("{c:?}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ));
+        }
         let skipped_invalid = valid.iter().filter(|v| !**v).count();
         if rows.is_empty() {
             return Err(ImportError::Empty {
@@ -399,9 +430,26 @@ impl Table {
         }
         // A column that is empty in every row was not logged (`hoverbench import` writes one for
         // each quantity a log lacks): it is absent, not an error.
+        // A column logged in only some of the rows kept (a sensor slower than the rest, not one
+        // the curve needs) is left out too, and said so.
+        let mut sparse = Vec::new();
+        for c in [&map.speed, &map.torque].into_iter().flatten() {
+            let empty = rows
+                .iter()
+                .filter(|&&r| self.cell_text(r, c).is_empty())
+                .count();
+            if empty > 0 && empty < rows.len() {
+                notes.push(format!(
+                    "column {c:?} is empty in {empty} of the {} row(s) kept (a sensor logged at another rate): not read",
+                    rows.len()
+                ));
+                sparse.push(c.clone());
+            }
+        }
         let opt = |c: &Option<String>, q| -> Result<Option<Vec<f64>>, ImportError> {
             c.as_deref()
                 .filter(|c| rows.iter().any(|&r| !self.cell_text(r, c).is_empty()))
+                .filter(|c| !sparse.iter().any(|s| s == c))
                 .map(|c| self.converted(c, q, &rows))
                 .transpose()
         };
@@ -1056,6 +1104,34 @@ mod tests {
     }
 
     #[test]
+    fn rows_of_sensors_logged_at_other_rates_are_left_out_and_said() {
+        let t = Table::parse(
+            b"Time (s),ESC signal (\xC2\xB5s),Torque (N\xC2\xB7m),Thrust (gf),Voltage (V),Current (A)\n\
+              0.0,1100,0.01,50,12,1\n0.1,1100,,,12,1\n0.2,1100,,51,12,1\n0.3,1100,0.01,,12,1\n",
+            "tyto.csv",
+        )
+        .unwrap();
+        let (map, _) = ColumnMap::detect(&t);
+        let m = t.measurements(&map, &[]).unwrap();
+        assert_eq!(m.thrust_g, [50.0, 51.0]);
+        assert!(m.torque_nm.is_none());
+        assert!(
+            m.notes[0].starts_with("2 of 4 row(s) left out for an empty cell"),
+            "{:?}",
+            m.notes
+        );
+        assert!(
+            m.notes[1].contains("\"Torque (N·m)\" is empty in 1 of the 2 row(s) kept"),
+            "{:?}",
+            m.notes
+        );
+        // A cell that holds text, not nothing, is still an error.
+        let t = Table::parse(b"thrust_g,voltage_v,current_a\n10,12,x\n", "bad").unwrap();
+        let (map, _) = ColumnMap::detect(&t);
+        assert!(t.measurements(&map, &[]).is_err());
+    }
+
+    #[test]
     fn a_flight_log_without_thrust_is_named_as_one() {
         let t = Table::parse(
             b"timestamp,voltage_v,current_a,discharged_mah\n1,16,3,0\n2,16,3,1\n",
@@ -1201,8 +1277,19 @@ mod tests {
         let m = t.measurements(&map, &[]).unwrap();
         assert!(m.speed_rpm.is_none());
         assert_eq!(m.throttle.unwrap(), [0.2, 0.5]);
-        // partly empty is still an error
+        // Partly empty: the row is left out, and said so (a stand logging its sensors at
+        // different rates); a column empty in every row that passes is an error.
         let t = Table::parse(b"thrust_g,power_w,throttle\n1,2,\n3,4,0.5\n", "e").unwrap();
+        let (map, _) = ColumnMap::detect(&t);
+        let m = t.measurements(&map, &[]).unwrap();
+        assert_eq!(
+            (m.thrust_g.as_slice(), m.notes[0].as_str()),
+            (
+                [3.0].as_slice(),
+                "1 of 2 row(s) left out for an empty cell in \"thrust_g\", \"power_w\", \"throttle\" (sensors logged at different rates)"
+            )
+        );
+        let t = Table::parse(b"thrust_g,power_w\n1,\n,4\n", "e").unwrap();
         let (map, _) = ColumnMap::detect(&t);
         assert!(t.measurements(&map, &[]).is_err());
     }

@@ -163,3 +163,38 @@ fn a_scale_and_power_monitor_stand_imports() {
         );
     }
 }
+
+/// A Tyto "time constant" test sampled fast (`tests/data/sar-simulation`, MIT, its first 2,000
+/// lines): its sensors are logged at different rates, so a third of the rows have an empty
+/// thrust or power cell. Those rows are left out and said so; the rest reduce to the throttle
+/// steps, where the stand's own power agrees with its voltage × current.
+#[test]
+fn a_tyto_export_with_sensors_at_different_rates_imports() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/sar-simulation/TimeConstant_Test_2023-12-16_130840_first2000lines.csv");
+    let log = StandLog::read(&path, &StandOptions::default()).unwrap();
+    assert_eq!(log.kind, LogKind::Tyto);
+    assert!(
+        log.notes[0].starts_with("687 of 1999 row(s) left out for an empty cell"),
+        "{:?}",
+        log.notes
+    );
+    assert_eq!(log.steps.len(), 6);
+    for s in &log.steps {
+        let (v, i, p) = (
+            s.voltage_v.unwrap(),
+            s.current_a.unwrap(),
+            s.power_w.unwrap(),
+        );
+        assert!(
+            (v * i - p).abs() <= 0.02 * p + 0.1,
+            "{v} V × {i} A vs {p} W"
+        );
+    }
+    // Thrust rises with the command over the first five steps.
+    assert!(
+        log.steps[..5]
+            .windows(2)
+            .all(|w| w[1].thrust_g > w[0].thrust_g)
+    );
+}
