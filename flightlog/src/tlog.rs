@@ -17,7 +17,8 @@
 //! `GLOBAL_POSITION_INT.relative_alt` (mm) as altitude and `VFR_HUD.throttle` (%) as throttle,
 //! both interpolated onto the battery's times; `HEARTBEAT` for the vehicle type and
 //! autopilot; `STATUSTEXT` and `PARAM_VALUE` for what an ArduPilot log says about itself
-//! (firmware, frame, `BATT_CAPACITY`, …, as in [`crate::dataflash`]). Time is the ground
+//! (firmware, frame, `BATT_CAPACITY`, …, as in [`crate::dataflash`]) or a PX4 one's parameters
+//! (`BAT1_N_CELLS`, `BAT1_CAPACITY`, `BAT1_V_EMPTY`, …, as in [`crate::ulog`]). Time is the ground
 //! station's time of reception from the battery's first message, s: a telemetry link drops
 //! packets, so its rate is what arrived.
 
@@ -254,26 +255,6 @@ fn text(bytes: &[u8]) -> String {
     String::from_utf8_lossy(&bytes[..end]).trim().to_owned()
 }
 
-/// The kind of vehicle a `HEARTBEAT.type` (`MAV_TYPE`) names, and its name.
-fn mav_type(t: u8) -> Option<(VehicleKind, &'static str)> {
-    Some(match t {
-        1 => (VehicleKind::FixedWing, "fixed wing"),
-        2 => (VehicleKind::Multirotor, "quadrotor"),
-        3 => (VehicleKind::Multirotor, "coaxial"),
-        4 => (VehicleKind::Helicopter, "helicopter"),
-        10 => (VehicleKind::Rover, "ground rover"),
-        11 => (VehicleKind::Rover, "surface boat"),
-        12 => (VehicleKind::Rover, "submarine"),
-        13 => (VehicleKind::Multirotor, "hexarotor"),
-        14 => (VehicleKind::Multirotor, "octorotor"),
-        15 => (VehicleKind::Multirotor, "tricopter"),
-        19..=25 => (VehicleKind::Vtol, "VTOL"),
-        29 => (VehicleKind::Multirotor, "dodecarotor"),
-        35 => (VehicleKind::Multirotor, "decarotor"),
-        _ => return None,
-    })
-}
-
 /// A telemetry link drops out (range, a restart of the autopilot or of the ground station):
 /// where the battery's messages stop for longer than [`crate::MAX_GAP_S`], the log is cut into
 /// stretches and the one that drew the most charge (without a current, the longest) is kept,
@@ -487,7 +468,14 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
             params.entry(name).or_insert(value);
         }
     }
-    let cells = battery::estimate_cells(&chosen.voltage_v);
+    // PX4 names its cells in a parameter; otherwise they are estimated from the voltage.
+    let px4 = matches!(heartbeat, Some((_, 12)));
+    let cells = params
+        .get("BAT1_N_CELLS")
+        .or_else(|| params.get("BAT_N_CELLS"))
+        .filter(|&&c| px4 && (1.0..=30.0).contains(&c))
+        .map(|&c| (c as u32, "BAT1_N_CELLS".to_owned()))
+        .or_else(|| battery::estimate_cells(&chosen.voltage_v));
     let mut info = match heartbeat {
         Some((_, 3)) => crate::dataflash::ardupilot_info(&messages, &params, cells.as_ref()),
         _ => {
@@ -495,19 +483,26 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
             if let Some((c, origin)) = &cells {
                 info.set("cells", origin.clone(), |m| m.cells = Some(*c));
             }
+            if px4 {
+                crate::ulog::px4_battery_info(&mut info, &params, 1);
+            }
             info
         }
     };
     if info.vehicle.is_none()
         && let Some((t, autopilot)) = heartbeat
-        && let Some((kind, name)) = mav_type(t)
+        && VehicleKind::from_mav_type(u32::from(t)) != VehicleKind::Other
     {
+        let kind = VehicleKind::from_mav_type(u32::from(t));
         let who = match autopilot {
             3 => "ArduPilot",
             12 => "PX4",
             _ => "autopilot",
         };
-        let description = format!("{who} {name} (HEARTBEAT type {t})");
+        let description = format!(
+            "{who} {} (HEARTBEAT type {t})",
+            crate::ulog::mav_type_name(u32::from(t))
+        );
         info.set("vehicle", description.clone(), |m| m.vehicle = Some(kind));
         info.vehicle = Some(Vehicle { kind, description });
     }
@@ -549,6 +544,79 @@ mod tests {
     fn the_checksum_is_mavlinks() {
         // CRC-16/MCRF4XX check value.
         assert_eq!(crc_x25(0xFFFF, b"123456789"), 0x6F91);
+    }
+
+    /// A MAVLink 2 packet from system 1 with its timestamp, its payload's trailing zeros cut
+    /// as MAVLink 2 sends it.
+    fn v2(time_us: u64, msg_id: u32, payload: &[u8]) -> Vec<u8> {
+        let (extra, _) = known(msg_id).unwrap();
+        let len = payload.iter().rposition(|&b| b != 0).map_or(1, |k| k + 1);
+        let mut frame = vec![V2, len as u8, 0, 0, 0, 1, 1];
+        frame.extend(&msg_id.to_le_bytes()[..3]);
+        frame.extend(&payload[..len]);
+        let crc = crc_x25(crc_x25(0xFFFF, &frame[1..]), &[extra]);
+        frame.extend(crc.to_le_bytes());
+        let mut out = time_us.to_be_bytes().to_vec();
+        out.extend(frame);
+        out
+    }
+
+    fn param_value(name: &str, value: f32) -> Vec<u8> {
+        let mut p = value.to_le_bytes().to_vec();
+        p.extend([0; 4]);
+        let mut id = name.as_bytes().to_vec();
+        id.resize(16, 0);
+        p.extend(id);
+        p.push(9);
+        p
+    }
+
+    #[test]
+    fn a_px4_telemetry_log_reads_its_battery_parameters() {
+        let t0 = 1_700_000_000_000_000u64;
+        let mut log = Vec::new();
+        let mut heartbeat = vec![0u8; 9];
+        heartbeat[4] = 2; // quadrotor
+        heartbeat[5] = 12; // PX4
+        log.extend(v2(t0, HEARTBEAT, &heartbeat));
+        for (name, value) in [
+            ("BAT1_N_CELLS", 4.0),
+            ("BAT1_CAPACITY", 5000.0),
+            ("BAT1_V_EMPTY", 3.5),
+        ] {
+            log.extend(v2(t0, PARAM_VALUE, &param_value(name, value)));
+        }
+        for k in 0..40u64 {
+            let mut sys = vec![0u8; 31];
+            sys[14..16].copy_from_slice(&(16_000u16 - 10 * k as u16).to_le_bytes());
+            sys[16..18].copy_from_slice(&(if k < 5 { 30i16 } else { 1_200 }).to_le_bytes());
+            sys[30] = 90;
+            log.extend(v2(t0 + 1_000 + k * 500_000, SYS_STATUS, &sys));
+        }
+        // A corrupted packet in between is skipped and counted.
+        let mut bad = v2(t0 + 30_000_000, SYS_STATUS, &[1; 31]);
+        let n = bad.len();
+        bad[n - 1] ^= 0xFF;
+        log.extend(bad);
+        let d = parse(&log, Path::new("px4.tlog")).unwrap();
+        assert_eq!(d.samples.time_s.len(), 40);
+        assert!((d.samples.time_s[39] - 19.5).abs() < 1e-9);
+        assert_eq!(d.samples.voltage_v[1], 15.99);
+        assert_eq!(d.samples.current_a.as_ref().unwrap()[10], 12.0);
+        assert_eq!(d.info.meta.cells, Some(4));
+        assert_eq!(d.info.meta.capacity_mah, Some(5000.0));
+        assert_eq!(d.info.meta.cutoff_voltage_v, Some(14.0));
+        assert_eq!(
+            d.info.vehicle.unwrap().description,
+            "PX4 quadrotor (HEARTBEAT type 2)"
+        );
+        assert!(
+            d.warnings
+                .iter()
+                .any(|w| w.contains("1 packet(s) with a wrong checksum")),
+            "{:?}",
+            d.warnings
+        );
     }
 
     #[test]

@@ -542,6 +542,50 @@ fn param<'n>(
     })
 }
 
+/// What a PX4 log's parameters say of battery `n` (1-based; `BATn_…`, else the older `BAT_…`)
+/// and the hover throttle, into `info` (whose cells, if known, are set first): the capacity,
+/// the cut-off and charged voltages per cell × cells, `MPC_THR_HOVER`. Shared by the ULog and
+/// telemetry-log readers.
+pub(crate) fn px4_battery_info(info: &mut LogInfo, parameters: &HashMap<String, f64>, n: u32) {
+    let lookup = |suffix: &str, ok: &dyn Fn(f64) -> bool| {
+        [format!("BAT{n}_{suffix}"), format!("BAT_{suffix}")]
+            .into_iter()
+            .find_map(|k| {
+                parameters
+                    .get(&k)
+                    .copied()
+                    .filter(|&v| ok(v))
+                    .map(|v| (k, v))
+            })
+    };
+    if let Some((k, v)) = lookup("CAPACITY", &|v| v > 0.0) {
+        info.set("capacity_mah", k, |m| m.capacity_mah = Some(v));
+    }
+    if let Some(cells) = info.meta.cells {
+        let c = f64::from(cells);
+        if let Some((k, v)) = lookup("V_EMPTY", &|v| v > 0.0 && v < 5.0) {
+            info.set("cutoff_voltage_v", format!("{k} × {cells} cells"), |m| {
+                m.cutoff_voltage_v = Some(v * c);
+            });
+        }
+        if let Some((k, v)) = lookup("V_CHARGED", &|v| v > 0.0 && v < 5.0) {
+            info.set("charged_voltage_v", format!("{k} × {cells} cells"), |m| {
+                m.charged_voltage_v = Some(v * c);
+            });
+        }
+    }
+    if let Some(v) = parameters
+        .get("MPC_THR_HOVER")
+        .copied()
+        .filter(|&v| v > 0.0 && v <= 1.0)
+    {
+        info.set("hover_throttle", "MPC_THR_HOVER", |m| {
+            m.hover_throttle = Some(v);
+        });
+    }
+    info.derive_energy();
+}
+
 /// Parses a `.ulg` into a flight's samples.
 pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError> {
     let log = ULog::parse(bytes, path)?;
@@ -621,40 +665,10 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
         .next()
         .and_then(|i| i.parse::<u32>().ok())
         .map_or(1, |i| i + 1);
-    let names = |suffix: &str| [format!("BAT{n}_{suffix}"), format!("BAT_{suffix}")];
-    let lookup = |suffix: &str, ok: &dyn Fn(f64) -> bool| {
-        let [a, b] = names(suffix);
-        [a, b].into_iter().find_map(|k| {
-            log.parameters
-                .get(&k)
-                .copied()
-                .filter(|&v| ok(v))
-                .map(|v| (k, v))
-        })
-    };
     if let Some((cells, origin)) = chosen.info.cells.clone() {
         info.set("cells", origin, |m| m.cells = Some(cells));
     }
-    if let Some((k, v)) = lookup("CAPACITY", &|v| v > 0.0) {
-        info.set("capacity_mah", k, |m| m.capacity_mah = Some(v));
-    }
-    if let Some(cells) = info.meta.cells {
-        let c = f64::from(cells);
-        if let Some((k, v)) = lookup("V_EMPTY", &|v| v > 0.0 && v < 5.0) {
-            info.set("cutoff_voltage_v", format!("{k} × {cells} cells"), |m| {
-                m.cutoff_voltage_v = Some(v * c);
-            });
-        }
-        if let Some((k, v)) = lookup("V_CHARGED", &|v| v > 0.0 && v < 5.0) {
-            info.set("charged_voltage_v", format!("{k} × {cells} cells"), |m| {
-                m.charged_voltage_v = Some(v * c);
-            });
-        }
-    }
-    if let Some((k, v)) = param(&log, &["MPC_THR_HOVER"], |v| v > 0.0 && v <= 1.0) {
-        info.set("hover_throttle", k, |m| m.hover_throttle = Some(v));
-    }
-    info.derive_energy();
+    px4_battery_info(&mut info, &log.parameters, n);
 
     // Vehicle: MAV_TYPE, else vehicle_status (system_type, is_vtol).
     let status = log
@@ -780,7 +794,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
 }
 
 /// MAVLink's name of a `MAV_TYPE`.
-fn mav_type_name(t: u32) -> &'static str {
+pub(crate) fn mav_type_name(t: u32) -> &'static str {
     match t {
         1 => "fixed wing",
         2 => "quadrotor",
