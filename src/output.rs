@@ -195,11 +195,11 @@ impl ModelArgs {
 /// How to read a thrust-stand log: column mapping, names for headerless files, row filters.
 #[derive(Debug, Clone, Default, clap::Args)]
 pub struct StandArgs {
-    /// Thrust column [default: detected: thrust_g, "Thrust (gf)", thrust_n, a scale's
-    /// "weight[g]", …]. Units come from the name: g, gf, kg, kgf, N, lbf, ozf.
+    /// Thrust column [default: detected: thrust_g, "Thrust (gf)", thrust_n, a scale's weight
+    /// column, …]. Units come from the name: g, gf, kg, kgf, N, lbf, ozf.
     #[arg(long, value_name = "COL")]
     pub thrust: Option<String>,
-    /// Voltage column [default: detected: voltage_v, "Voltage (V)", a power monitor's "v[V]", …].
+    /// Voltage column [default: detected: voltage_v, "Voltage (V)", a power monitor's v, …].
     #[arg(long, value_name = "COL")]
     pub voltage: Option<String>,
     /// Current column [default: detected].
