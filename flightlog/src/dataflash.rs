@@ -888,6 +888,16 @@ impl Clock {
     }
 }
 
+/// The time of a row, s: its own time field (value `k`, with its scale) if the message has
+/// one, else the log's clock at its position.
+fn row_time(own: Option<(&str, f64)>, clock: Option<&Clock>, r: &Row, k: usize) -> Option<f64> {
+    match (own, clock) {
+        (Some((_, scale)), _) => r.values[k].map(|t| t * scale),
+        (None, Some(c)) => c.at(r.offset),
+        (None, None) => None,
+    }
+}
+
 /// Scale of a battery field to volts or amps: `0.01` for an integer field (ArduCopter 3.x
 /// `CURR.Volt` and `CURR.Curr` are centivolts and centiamps in `h`), 1 otherwise (`f`, and
 /// `c`/`C`, already scaled by [`decode_field`]).
@@ -973,11 +983,7 @@ fn battery_tracks(
                 fields.push((label, true));
             }
             let all = log.rows(name, instance, &fields, path)?;
-            let time_of = |r: &Row| match (own_time, &clock) {
-                (Some((_, scale)), _) => r.values[3].map(|t| t * scale),
-                (None, Some(c)) => c.at(r.offset),
-                (None, None) => None,
-            };
+            let time_of = |r: &Row| row_time(own_time, clock.as_ref(), r, 3);
             // Voltage is a required field: a row without a time is one outside the clock.
             let rows: Vec<(&Row, f64)> = all
                 .iter()
@@ -1269,11 +1275,7 @@ fn decode(log: &DataFlash<'_>, path: &Path) -> Result<Decoded, FlightLogError> {
             fields.push((label, true));
         }
         let rows = log.rows(name, instance, &fields, path)?;
-        let time_of = |r: &Row| match (own, &clock) {
-            (Some((_, scale)), _) => r.values[1].map(|t| t * scale),
-            (None, Some(c)) => c.at(r.offset),
-            (None, None) => None,
-        };
+        let time_of = |r: &Row| row_time(own, clock.as_ref(), r, 1);
         let (t, v): (Vec<f64>, Vec<f64>) = rows
             .iter()
             .filter_map(|r| Some((time_of(r)? - t0, r.values[0]?)))
@@ -1298,21 +1300,18 @@ fn decode(log: &DataFlash<'_>, path: &Path) -> Result<Decoded, FlightLogError> {
         }
         None => None,
     };
-    Ok(Decoded {
-        samples: Samples {
+    Ok(Decoded::battery_log(
+        Samples {
             time_s,
             voltage_v: chosen.voltage_v,
             current_a: chosen.current_a,
-            phase: None,
             altitude_m,
             throttle,
-            landed: None,
-            vtol_transition: None,
+            ..Samples::default()
         },
-        landed: None,
         warnings,
         info,
-    })
+    ))
 }
 
 /// ArduPilot logs no cell count: estimated from the highest voltage.

@@ -480,6 +480,19 @@ pub(crate) struct Decoded {
     pub(crate) info: LogInfo,
 }
 
+impl Decoded {
+    /// A log without phases or a land detector (DataFlash, telemetry logs): its samples, what
+    /// was read past, what it says about itself.
+    pub(crate) fn battery_log(samples: Samples, warnings: Vec<String>, info: LogInfo) -> Self {
+        Self {
+            samples,
+            landed: None,
+            warnings,
+            info,
+        }
+    }
+}
+
 /// A log's name: its file name without extension.
 pub(crate) fn flight_name(path: &Path) -> String {
     path.file_stem()

@@ -249,6 +249,22 @@ fn f32_at(p: &[u8], at: usize) -> f32 {
     f32::from_le_bytes([p[at], p[at + 1], p[at + 2], p[at + 3]])
 }
 
+/// A battery current field (`int16` cA, −1 unknown), A.
+fn current_at(p: &[u8], at: usize) -> Option<f64> {
+    match i16_at(p, at) {
+        -1 => None,
+        ca => Some(f64::from(ca) / 100.0),
+    }
+}
+
+/// A `battery_remaining` field (`int8` %, −1 unknown), as a fraction (negative: unknown).
+fn remaining_at(p: &[u8], at: usize) -> f64 {
+    match p[at] as i8 {
+        r @ 0..=100 => f64::from(r) / 100.0,
+        _ => -1.0,
+    }
+}
+
 /// Text of a NUL-padded `char[n]`.
 fn text(bytes: &[u8]) -> String {
     let end = bytes.iter().position(|&b| b == 0).unwrap_or(bytes.len());
@@ -354,22 +370,9 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
                     mv => f64::from(mv) / 1000.0,
                 })
                 .collect(),
-            current_a: sys
-                .iter()
-                .map(|p| match i16_at(&p.payload, 16) {
-                    -1 => None,
-                    ca => Some(f64::from(ca) / 100.0),
-                })
-                .collect(),
+            current_a: sys.iter().map(|p| current_at(&p.payload, 16)).collect(),
             connected: None,
-            remaining: Some(
-                sys.iter()
-                    .map(|p| match p.payload[30] as i8 {
-                        r @ 0..=100 => f64::from(r) / 100.0,
-                        _ => -1.0,
-                    })
-                    .collect(),
-            ),
+            remaining: Some(sys.iter().map(|p| remaining_at(&p.payload, 30)).collect()),
             warning: None,
             cells: None,
         });
@@ -397,22 +400,9 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
                     c => c.iter().map(|&mv| f64::from(mv)).sum::<f64>() / 1000.0,
                 })
                 .collect(),
-            current_a: b
-                .iter()
-                .map(|p| match i16_at(&p.payload, 30) {
-                    -1 => None,
-                    ca => Some(f64::from(ca) / 100.0),
-                })
-                .collect(),
+            current_a: b.iter().map(|p| current_at(&p.payload, 30)).collect(),
             connected: None,
-            remaining: Some(
-                b.iter()
-                    .map(|p| match p.payload[35] as i8 {
-                        r @ 0..=100 => f64::from(r) / 100.0,
-                        _ => -1.0,
-                    })
-                    .collect(),
-            ),
+            remaining: Some(b.iter().map(|p| remaining_at(&p.payload, 35)).collect()),
             warning: None,
             cells: None,
         });
@@ -519,21 +509,18 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
     };
     let altitude_m = series(GLOBAL_POSITION_INT, &|p| f64::from(i32_at(p, 16)) / 1000.0);
     let throttle = series(VFR_HUD, &|p| f64::from(u16_at(p, 18)) / 100.0);
-    Ok(Decoded {
-        samples: Samples {
+    Ok(Decoded::battery_log(
+        Samples {
             time_s,
             voltage_v: chosen.voltage_v,
             current_a: chosen.current_a,
-            phase: None,
             altitude_m,
             throttle,
-            landed: None,
-            vtol_transition: None,
+            ..Samples::default()
         },
-        landed: None,
         warnings,
         info,
-    })
+    ))
 }
 
 #[cfg(test)]

@@ -5,29 +5,16 @@
 //! charge integrated from the samples against the firmware's own counter (`CURR.CurrTot`,
 //! `discharged_mah`), which no code here computes.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use common::charge_mah;
 
 use flightlog::dataflash::DataFlash;
 use flightlog::{Flight, FlightLogError, LogFormat};
 
-fn data(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data")
-        .join(rel)
-}
-
-/// Charge drawn between the first and last sample, mAh (trapezoids).
-fn charge_mah(f: &Flight) -> f64 {
-    let (t, i) = (&f.samples.time_s, f.samples.current_a.as_ref().unwrap());
-    (1..t.len())
-        .map(|k| 0.5 * (i[k] + i[k - 1]) * (t[k] - t[k - 1]))
-        .sum::<f64>()
-        / 3.6
-}
-
 #[test]
 fn an_apm2_text_log_without_battery_times_is_timed_by_its_gps() {
-    let path = data("ardupilot-text/mechanical_fail.log");
+    let path = common::data("ardupilot-text/mechanical_fail.log");
     let f = Flight::read(&path).unwrap();
     assert_eq!(f.format, LogFormat::DataFlashText);
     assert_eq!(
@@ -75,7 +62,7 @@ fn an_apm2_text_log_without_battery_times_is_timed_by_its_gps() {
 
 #[test]
 fn a_battery_hole_in_a_text_log_is_named_by_its_line() {
-    let e = Flight::read(&data("ardupilot-text/robert_lefebvre_octo_PM.log")).unwrap_err();
+    let e = Flight::read(&common::data("ardupilot-text/robert_lefebvre_octo_PM.log")).unwrap_err();
     let text = e.to_string();
     assert!(
         text.contains("line 1272") && text.contains("CURR (times from GPS.Time)"),
@@ -86,7 +73,7 @@ fn a_battery_hole_in_a_text_log_is_named_by_its_line() {
 
 #[test]
 fn a_text_log_with_no_time_anywhere_says_so() {
-    let e = Flight::read(&data("ardupilot-text/underpowered_first60k.log")).unwrap_err();
+    let e = Flight::read(&common::data("ardupilot-text/underpowered_first60k.log")).unwrap_err();
     assert!(matches!(e, FlightLogError::MissingData { .. }), "{e}");
     assert!(
         e.to_string()
@@ -97,7 +84,8 @@ fn a_text_log_with_no_time_anywhere_says_so() {
 
 #[test]
 fn a_px4_ulog2csv_battery_export_agrees_with_px4s_own_counter() {
-    let path = data("px4-ulog2csv/7c824ee5-cf25-4c19-8739-12455adfae23_battery_status_0.csv");
+    let path =
+        common::data("px4-ulog2csv/7c824ee5-cf25-4c19-8739-12455adfae23_battery_status_0.csv");
     let f = Flight::read(&path).unwrap();
     assert_eq!(f.format, LogFormat::Csv);
     assert_eq!(f.samples.len(), 1539);

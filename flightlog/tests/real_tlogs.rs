@@ -5,29 +5,18 @@
 //! integrated from the samples is checked against what the autopilot counted itself
 //! (`battery_remaining` × `BATT_CAPACITY`; `BATTERY_STATUS.current_consumed`).
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use std::path::Path;
+
+use common::charge_mah;
 
 use flightlog::tlog::Tlog;
 use flightlog::{Flight, FlightLogError, LogFormat, VehicleKind};
 
-fn data(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/tlog")
-        .join(rel)
-}
-
-/// Charge drawn between the first and last sample, mAh (trapezoids).
-fn charge_mah(f: &Flight) -> f64 {
-    let (t, i) = (&f.samples.time_s, f.samples.current_a.as_ref().unwrap());
-    (1..t.len())
-        .map(|k| 0.5 * (i[k] + i[k - 1]) * (t[k] - t[k - 1]))
-        .sum::<f64>()
-        / 3.6
-}
-
 #[test]
 fn a_mission_planner_tlog_keeps_the_stretch_that_flew() {
-    let f = Flight::read(&data("dronekit+dronekit-python/flight.tlog")).unwrap();
+    let f = Flight::read(&common::data("tlog/dronekit+dronekit-python/flight.tlog")).unwrap();
     assert_eq!(f.format, LogFormat::Tlog);
     assert_eq!(f.meta.vehicle, Some(VehicleKind::Multirotor));
     assert_eq!(f.meta.capacity_mah, Some(2650.0));
@@ -44,7 +33,8 @@ fn a_mission_planner_tlog_keeps_the_stretch_that_flew() {
     // ArduPilot's remaining charge counts down its own integral of the current against
     // BATT_CAPACITY (in whole percent): the reception times agree with it within 3 %.
     let remaining = |at: usize| -> f64 {
-        let bytes = std::fs::read(data("dronekit+dronekit-python/flight.tlog")).unwrap();
+        let bytes =
+            std::fs::read(common::data("tlog/dronekit+dronekit-python/flight.tlog")).unwrap();
         let log = Tlog::parse(&bytes, Path::new("flight.tlog")).unwrap();
         let sys: Vec<_> = log
             .packets
@@ -67,7 +57,7 @@ fn a_mission_planner_tlog_keeps_the_stretch_that_flew() {
 
 #[test]
 fn a_mavlink2_tlog_reads_both_battery_messages_alike() {
-    let path = data("clydemcqueen+ardusub_log_tools/small.tlog");
+    let path = common::data("tlog/clydemcqueen+ardusub_log_tools/small.tlog");
     let f = Flight::read(&path).unwrap();
     assert_eq!(f.samples.len(), 528);
     assert_eq!(f.meta.vehicle, Some(VehicleKind::Rover));
@@ -100,7 +90,10 @@ fn a_mavlink2_tlog_reads_both_battery_messages_alike() {
 
 #[test]
 fn a_tlog_without_a_battery_says_so() {
-    let e = Flight::read(&data("ArduPilot+UAVLogViewer/vtol_first120k.tlog")).unwrap_err();
+    let e = Flight::read(&common::data(
+        "tlog/ArduPilot+UAVLogViewer/vtol_first120k.tlog",
+    ))
+    .unwrap_err();
     assert!(matches!(e, FlightLogError::NoUsableBattery { .. }), "{e}");
     assert!(e.to_string().contains("SYS_STATUS: no voltage"), "{e}");
 }

@@ -5,6 +5,23 @@ use std::path::{Path, PathBuf};
 
 use import::stand::{ColumnMap, LogKind, StandLog, StandOptions};
 
+/// The stand's own power agrees with its voltage × current at every step, within 2 % and
+/// `floor_w` (the power monitor's resolution at idle).
+fn power_agrees(log: &StandLog, floor_w: f64) {
+    for s in &log.steps {
+        let (v, i, p) = (
+            s.voltage_v.unwrap(),
+            s.current_a.unwrap(),
+            s.power_w.unwrap(),
+        );
+        assert!(
+            (v * i - p).abs() <= 0.02 * p.abs() + floor_w,
+            "{}: {v} V × {i} A vs {p} W",
+            log.source_name
+        );
+    }
+}
+
 fn shared(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../shared/data/real")
@@ -26,18 +43,9 @@ fn every_rcbenchmark_export_imports() {
         assert_eq!(log.kind, LogKind::Tyto, "{}", path.display());
         assert!(log.power_logged);
         assert!(!log.steps.is_empty());
+        // The stand logs electrical power beside voltage and current: they must agree.
+        power_agrees(&log, 0.05);
         for s in &log.steps {
-            // The stand logs electrical power beside voltage and current: they must agree.
-            let (v, i, p) = (
-                s.voltage_v.unwrap(),
-                s.current_a.unwrap(),
-                s.power_w.unwrap(),
-            );
-            assert!(
-                (v * i - p).abs() <= 0.02 * p.abs() + 0.05,
-                "{}: {v} V × {i} A vs {p} W",
-                path.display()
-            );
             assert!((1000.0..=2200.0).contains(&s.throttle.unwrap()));
         }
     }
@@ -151,17 +159,7 @@ fn a_scale_and_power_monitor_stand_imports() {
         .map(|s| s.thrust_g)
         .fold(f64::MIN, f64::max);
     assert!((top - 29.39).abs() < 0.01, "{top}");
-    for s in &log.steps {
-        let (v, i, p) = (
-            s.voltage_v.unwrap(),
-            s.current_a.unwrap(),
-            s.power_w.unwrap(),
-        );
-        assert!(
-            (v * i - p).abs() <= 0.02 * p + 0.1,
-            "{v} V × {i} A vs {p} W"
-        );
-    }
+    power_agrees(&log, 0.1);
 }
 
 /// A Tyto "time constant" test sampled fast (`tests/data/sar-simulation`, MIT, its first 2,000
@@ -180,17 +178,7 @@ fn a_tyto_export_with_sensors_at_different_rates_imports() {
         log.notes
     );
     assert_eq!(log.steps.len(), 6);
-    for s in &log.steps {
-        let (v, i, p) = (
-            s.voltage_v.unwrap(),
-            s.current_a.unwrap(),
-            s.power_w.unwrap(),
-        );
-        assert!(
-            (v * i - p).abs() <= 0.02 * p + 0.1,
-            "{v} V × {i} A vs {p} W"
-        );
-    }
+    power_agrees(&log, 0.1);
     // Thrust rises with the command over the first five steps.
     assert!(
         log.steps[..5]

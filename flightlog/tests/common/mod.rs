@@ -278,3 +278,19 @@ pub const PROFILE_S: f64 = 48.0;
 pub fn voltage(t: f64, current_a: f64) -> f64 {
     12.6 - 0.02 * t - 0.05 * current_a
 }
+
+/// A file of `tests/data/` (real logs kept with their licences).
+pub fn data(rel: &str) -> std::path::PathBuf {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(rel)
+}
+
+/// Charge drawn between a flight's first and last sample, mAh (trapezoids).
+pub fn charge_mah(f: &flightlog::Flight) -> f64 {
+    let (t, i) = (&f.samples.time_s, f.samples.current_a.as_ref().unwrap());
+    (1..t.len())
+        .map(|k| 0.5 * (i[k] + i[k - 1]) * (t[k] - t[k - 1]))
+        .sum::<f64>()
+        / 3.6
+}
