@@ -31,7 +31,7 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use crate::battery::{self, Track};
-use crate::{Decoded, FlightLogError, LogInfo, Row, Samples, Vehicle, VehicleKind};
+use crate::{Decoded, FlightLogError, LogInfo, Row, Vehicle, VehicleKind};
 
 /// The two bytes that start every message.
 pub const MAGIC: [u8; 2] = [0xA3, 0x95];
@@ -1301,16 +1301,7 @@ fn decode(log: &DataFlash<'_>, path: &Path) -> Result<Decoded, FlightLogError> {
         None => None,
     };
     Ok(Decoded::battery_log(
-        Samples {
-            time_s,
-            voltage_v: chosen.voltage_v,
-            current_a: chosen.current_a,
-            altitude_m,
-            throttle,
-            ..Samples::default()
-        },
-        warnings,
-        info,
+        chosen, altitude_m, throttle, warnings, info,
     ))
 }
 

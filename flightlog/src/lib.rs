@@ -481,11 +481,25 @@ pub(crate) struct Decoded {
 }
 
 impl Decoded {
-    /// A log without phases or a land detector (DataFlash, telemetry logs): its samples, what
-    /// was read past, what it says about itself.
-    pub(crate) fn battery_log(samples: Samples, warnings: Vec<String>, info: LogInfo) -> Self {
+    /// A log without phases or a land detector (DataFlash, telemetry logs): the battery's
+    /// samples kept, altitude and throttle on their times, what was read past, what the log
+    /// says about itself.
+    pub(crate) fn battery_log(
+        chosen: battery::Chosen,
+        altitude_m: Option<Vec<f64>>,
+        throttle: Option<Vec<f64>>,
+        warnings: Vec<String>,
+        info: LogInfo,
+    ) -> Self {
         Self {
-            samples,
+            samples: Samples {
+                time_s: chosen.time_s,
+                voltage_v: chosen.voltage_v,
+                current_a: chosen.current_a,
+                altitude_m,
+                throttle,
+                ..Samples::default()
+            },
             landed: None,
             warnings,
             info,

@@ -26,7 +26,7 @@ use std::collections::HashMap;
 use std::path::Path;
 
 use crate::battery::{self, Track};
-use crate::{Decoded, FlightLogError, LogInfo, Samples, Vehicle, VehicleKind};
+use crate::{Decoded, FlightLogError, LogInfo, Vehicle, VehicleKind};
 
 /// Start byte of a MAVLink 1 packet.
 pub const V1: u8 = 0xFE;
@@ -510,16 +510,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
     let altitude_m = series(GLOBAL_POSITION_INT, &|p| f64::from(i32_at(p, 16)) / 1000.0);
     let throttle = series(VFR_HUD, &|p| f64::from(u16_at(p, 18)) / 100.0);
     Ok(Decoded::battery_log(
-        Samples {
-            time_s,
-            voltage_v: chosen.voltage_v,
-            current_a: chosen.current_a,
-            altitude_m,
-            throttle,
-            ..Samples::default()
-        },
-        warnings,
-        info,
+        chosen, altitude_m, throttle, warnings, info,
     ))
 }
 
