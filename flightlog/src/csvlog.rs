@@ -303,9 +303,8 @@ pub fn alias(header: &str) -> Option<(usize, f64)> {
         // Betaflight's raw ADC units unless its decoder wrote a unit.
         "vbatlatest" if unit.is_some() => (1, None, false),
         "amperagelatest" if unit.is_some() => (2, None, false),
-        "altitude" | "alt" | "height" | "relative_alt" | "rel_alt" | "stateestimate.z" => {
-            (4, None, false)
-        }
+        "altitude" | "alt" | "height" | "relative_alt" | "rel_alt" | "stateestimate.z"
+        | "baroalt" => (4, None, false),
         _ => return None,
     };
     let unit = match (unit, default) {
@@ -429,6 +428,7 @@ mod tests {
             ("current (mA)", 2, 1e-3),
             ("Alt", 4, 1.0),
             ("altitude_cm", 4, 0.01),
+            ("BaroAlt (cm)", 4, 0.01),
         ] {
             assert_eq!(alias(header), Some((column, scale)), "{header}");
         }
