@@ -19,7 +19,7 @@
 //! positions in errors and warnings being lines instead of bytes.
 //!
 //! A flight takes `BAT` (`TimeUS`, `Volt`, `Curr`; the lowest `Instance`), and for altitude
-//! `CTUN.Alt` (else `BARO.Alt`, lowest instance) and throttle `CTUN.ThO` (0–1), both
+//! `CTUN.Alt` (else ArduCopter 3.0–3.2's `CTUN.BarAlt`, else `BARO.Alt`, lowest instance) and throttle `CTUN.ThO` (0–1), both
 //! interpolated onto the battery's times. Time is `BAT.TimeUS` (or `TimeMS`) from its first
 //! sample, s. A message without a time field (ArduCopter 3.0–3.1's `CURR` and `CTUN`) takes
 //! its times from the log's [`Clock`]: those of the most frequent message type that has them
@@ -1283,9 +1283,13 @@ fn decode(log: &DataFlash<'_>, path: &Path) -> Result<Decoded, FlightLogError> {
             .unzip();
         Ok(crate::resample::linear(&t, &v, &time_s))
     };
+    // ArduCopter 3.0–3.2 name CTUN's barometric altitude `BarAlt`.
     let altitude_m = match series("CTUN", "Alt")? {
         Some(a) => Some(a),
-        None => series("BARO", "Alt")?,
+        None => match series("CTUN", "BarAlt")? {
+            Some(a) => Some(a),
+            None => series("BARO", "Alt")?,
+        },
     };
     // Throttle: CTUN.ThO (0–1) in current firmware; ArduCopter 3.x logs CTUN.ThrOut in 0–1000
     // (ArduPlane's ThrOut is a percentage of another meaning: not read).

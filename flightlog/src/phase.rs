@@ -12,7 +12,7 @@
 //!   within a band above it (5 % of the altitude range, at least [`MIN_GROUND_BAND_M`]) and
 //!   not moving vertically are on the ground, if their run touches the start or the end of the
 //!   log (a still period near the ground between flying periods is a low hover). The vertical speed is the slope of the smoothed
-//!   altitude over [`SMOOTHING_S`]; above [`VERTICAL_SPEED_THRESHOLD_M_S`] is a climb, below its
+//!   altitude over [`SMOOTHING_S`] (at least 2.5 sample intervals); above [`VERTICAL_SPEED_THRESHOLD_M_S`] is a climb, below its
 //!   negative a descent, between them a hover.
 //! - **both**: motors off near the ground is `Ground`, motors off at the highest plateau (within
 //!   the band below the maximum, and clear of the ground band) is `Attached`, motors off
@@ -88,7 +88,8 @@ impl std::fmt::Display for Phase {
     }
 }
 
-/// Window of the moving averages and of the vertical-speed slope, s.
+/// Window of the moving averages and of the vertical-speed slope, s (at least 2.5 sample
+/// intervals, for logs slower than 2.5 Hz).
 pub const SMOOTHING_S: f64 = 1.0;
 /// Vertical speed beyond which a flying sample is a climb or a descent, m/s.
 pub const VERTICAL_SPEED_THRESHOLD_M_S: f64 = 0.1;
@@ -349,8 +350,11 @@ pub fn infer_vtol(
     // Altitude: ground level, band, vertical speed.
     let mut altitude_info = None;
     let vertical: Option<(Vec<f64>, Vec<f64>)> = signals.altitude_m.map(|altitude| {
-        let smooth = moving_average(t, altitude, SMOOTHING_S);
-        let speed = slope(t, &smooth, SMOOTHING_S);
+        // A log slower than 2.5 Hz (1 Hz lab logs, telemetry) would have one sample in the
+        // window, and no slope: the window spans at least its neighbours.
+        let window = SMOOTHING_S.max(2.5 * median_interval(t));
+        let smooth = moving_average(t, altitude, window);
+        let speed = slope(t, &smooth, window);
         let mut sorted: Vec<f64> = smooth.iter().copied().filter(|v| v.is_finite()).collect();
         sorted.sort_by(f64::total_cmp);
         let ground = percentile(&sorted, 0.01);
@@ -724,6 +728,16 @@ pub fn moving_average(time_s: &[f64], values: &[f64], window_s: f64) -> Vec<f64>
         });
     }
     out
+}
+
+/// Median interval between samples, s (0 with fewer than two).
+fn median_interval(time_s: &[f64]) -> f64 {
+    let mut d: Vec<f64> = time_s.windows(2).map(|w| w[1] - w[0]).collect();
+    if d.is_empty() {
+        return 0.0;
+    }
+    d.sort_by(f64::total_cmp);
+    d[d.len() / 2]
 }
 
 /// Slope of `values` over a window centred on each sample, per second; 0 where the window has
