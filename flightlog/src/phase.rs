@@ -799,6 +799,41 @@ mod tests {
     }
 
     #[test]
+    fn a_one_hertz_log_climbs_hovers_and_descends_as_its_altitude_says() {
+        // 1 Hz: 10 s on the ground, a climb at 1 m/s for 30 s, 30 s of hover, a descent.
+        let t = time(110, 1.0);
+        let alt: Vec<f64> = (0..110)
+            .map(|k| match k {
+                0..10 => 0.0,
+                10..40 => (k - 10) as f64,
+                40..70 => 30.0,
+                70..100 => 30.0 - (k - 70) as f64,
+                _ => 0.0,
+            })
+            .collect();
+        let i: Vec<f64> = (0..110)
+            .map(|k| if (10..100).contains(&k) { 9.0 } else { 0.3 })
+            .collect();
+        let (phases, _) = infer(Signals {
+            time_s: &t,
+            current_a: Some(&i),
+            altitude_m: Some(&alt),
+            landed: None,
+        })
+        .unwrap();
+        assert_eq!(
+            [phases[3], phases[25], phases[55], phases[85], phases[106]],
+            [
+                Phase::Ground,
+                Phase::Climb,
+                Phase::Hover,
+                Phase::Descend,
+                Phase::Ground
+            ]
+        );
+    }
+
+    #[test]
     fn current_only_ground_at_ends_attached_between() {
         // 10 Hz: ground 5 s, hover 10 s, attached 10 s, hover 10 s, ground 5 s.
         let t = time(400, 10.0);
