@@ -109,34 +109,30 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
     // Columns other tools write, for the columns not named exactly (the first of each); not
     // in a thrust stand's export, whose time and voltage are a bench's, not a flight's.
     let mut read_as = Vec::new();
-    ignored.retain(|&i| match alias(&names[i]).filter(|_| !stand) {
-        Some((k, s)) if index[k].is_none() => {
-            index[k] = Some(i);
-            scale[k] = s;
-            read_as.push(if s == 1.0 {
-                format!("{:?} as {}", names[i], COLUMNS[k])
-            } else {
-                format!("{:?} as {} (× {s})", names[i], COLUMNS[k])
-            });
-            false
-        }
-        _ => true,
-    });
-    let ignored: Vec<String> = ignored.iter().map(|&i| names[i].clone()).collect();
     // The Crazyflie client (cfclient, cflib) writes `Timestamp` in ms since power-on beside
-    // its `group.name` variables (`pm.vbat`).
-    if let Some(i) = index[0]
-        && names[i].eq_ignore_ascii_case("timestamp")
-        && names.iter().any(|n| n.eq_ignore_ascii_case("pm.vbat"))
-    {
-        scale[0] = 1e-3;
-        if let Some(r) = read_as
-            .iter_mut()
-            .find(|r| r.starts_with(&format!("{:?}", names[i])))
-        {
-            *r = format!("{:?} as time_s (ms, the Crazyflie client's)", names[i]);
-        }
-    }
+    // its `group.name` variables (`pm.vbat`); PX4's `ulog2csv` in µs.
+    let crazyflie_client = names.iter().any(|n| n.eq_ignore_ascii_case("pm.vbat"));
+    let timestamp_unit = if crazyflie_client { "ms" } else { "us" };
+    ignored.retain(
+        |&i| match alias_with(&names[i], timestamp_unit).filter(|_| !stand) {
+            Some((k, s)) if index[k].is_none() => {
+                index[k] = Some(i);
+                scale[k] = s;
+                read_as.push(
+                    if crazyflie_client && names[i].eq_ignore_ascii_case("timestamp") {
+                        format!("{:?} as time_s (ms, the Crazyflie client's)", names[i])
+                    } else if s == 1.0 {
+                        format!("{:?} as {}", names[i], COLUMNS[k])
+                    } else {
+                        format!("{:?} as {} (× {s})", names[i], COLUMNS[k])
+                    },
+                );
+                false
+            }
+            _ => true,
+        },
+    );
+    let ignored: Vec<String> = ignored.iter().map(|&i| names[i].clone()).collect();
     let require = |k: usize| {
         index[k].ok_or_else(|| FlightLogError::MissingColumn {
             path: path.to_owned(),
@@ -277,6 +273,12 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
 /// brackets (`(us)`, `[V]`), else a `_unit` suffix, else the name itself (`TimeUS`); without
 /// one, a column is in the canonical unit, except `timestamp` (µs, as PX4 writes it).
 pub fn alias(header: &str) -> Option<(usize, f64)> {
+    alias_with(header, "us")
+}
+
+/// [`alias`], with the unit a bare `timestamp` is in (`us` for PX4, `ms` for the Crazyflie
+/// client).
+pub fn alias_with(header: &str, timestamp_unit: &str) -> Option<(usize, f64)> {
     let lower = header.trim().to_lowercase();
     let (stem, unit) = match lower.find(['(', '[']) {
         Some(open) => {
@@ -292,8 +294,7 @@ pub fn alias(header: &str) -> Option<(usize, f64)> {
     // (column, unit when the header gives none, whether the name fixes its unit)
     let (column, default, fixed) = match stem {
         "time" | "t" | "time_boot" | "time_since_start" => (0, None, false),
-        // PX4's `ulog2csv` writes `timestamp` in µs.
-        "timestamp" => (0, Some("us"), false),
+        "timestamp" => (0, Some(timestamp_unit), false),
         "timeus" => (0, Some("us"), true),
         "timems" => (0, Some("ms"), true),
         "voltage" | "volt" | "volts" | "vbat" | "battery_voltage" | "batteryvoltage"

@@ -939,6 +939,7 @@ fn logged_cells(log: &DataFlash<'_>, path: &Path) -> Option<(u32, String)> {
 /// `CURR_CELL` structure, whose `Volt` is the pack voltage, without current).
 fn battery_tracks(
     log: &DataFlash<'_>,
+    clock: Option<&Clock>,
     path: &Path,
 ) -> Result<(Vec<Track>, Vec<String>), FlightLogError> {
     let mut tracks = Vec::new();
@@ -963,7 +964,7 @@ fn battery_tracks(
         let own_time = log.time_field(name);
         let clock = match own_time {
             Some(_) => None,
-            None => Some(log.clock(path).ok_or_else(|| FlightLogError::MissingData {
+            None => Some(clock.ok_or_else(|| FlightLogError::MissingData {
                 path: path.to_owned(),
                 field: format!("{name}.TimeUS"),
                 message: format!(
@@ -983,14 +984,14 @@ fn battery_tracks(
                 fields.push((label, true));
             }
             let all = log.rows(name, instance, &fields, path)?;
-            let time_of = |r: &Row| row_time(own_time, clock.as_ref(), r, 3);
+            let time_of = |r: &Row| row_time(own_time, clock, r, 3);
             // Voltage is a required field: a row without a time is one outside the clock.
             let rows: Vec<(&Row, f64)> = all
                 .iter()
                 .filter(|r| r.values[0].is_some())
                 .filter_map(|r| Some((r, time_of(r)?)))
                 .collect();
-            if let Some(c) = &clock {
+            if let Some(c) = clock {
                 notes.push(format!(
                     "{name} has no time field: its times are interpolated by position in the log between the {} of the messages around it{}",
                     c.label,
@@ -1222,7 +1223,14 @@ pub(crate) fn parse_text(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLog
 /// A flight's samples from a DataFlash log, binary or text.
 fn decode(log: &DataFlash<'_>, path: &Path) -> Result<Decoded, FlightLogError> {
     let mut warnings = log.warnings.clone();
-    let (tracks, mut notes) = battery_tracks(log, path)?;
+    // The clock, only for a log whose battery, altitude or throttle message has no time field
+    // (ArduCopter 3.0–3.1): built once, for both.
+    let clock = ["BAT", "BAT2", "CURR", "BCL", "CTUN", "BARO"]
+        .iter()
+        .any(|n| log.has(n) && log.time_field(n).is_none())
+        .then(|| log.clock(path))
+        .flatten();
+    let (tracks, mut notes) = battery_tracks(log, clock.as_ref(), path)?;
     warnings.append(&mut notes);
     let mut chosen = battery::choose(
         path,
@@ -1234,7 +1242,6 @@ fn decode(log: &DataFlash<'_>, path: &Path) -> Result<Decoded, FlightLogError> {
     let t0 = chosen.t0_s;
     let time_s = chosen.time_s.clone();
     let battery_type = chosen.info.battery.split(' ').next().unwrap_or("BAT");
-    let clock = log.clock(path);
     let time_label = match log.time_field(battery_type) {
         Some((label, _)) => format!("{battery_type}.{label}"),
         None => format!(
