@@ -16,7 +16,7 @@ fn main() {
     for seed in args.filter_map(|a| a.parse::<u64>().ok()) {
         match gap_eval::run_scenario(seed, &families) {
             Ok(s) => println!(
-                "{:5} {:24} {:18} {:9.4} {:14} impact {:7.2} %  -> {:56} {}  held-out endurance {:?} -> {:?}",
+                "{:5} {:24} {:18} {:9.4} {:14} impact {:7.2} %  -> {:56} {}  held-out endurance {:?} -> {:?}{}",
                 s.seed,
                 s.family,
                 s.truth,
@@ -32,7 +32,12 @@ fn main() {
                     "BAD"
                 },
                 s.heldout_endurance_before_pct,
-                s.heldout_endurance_after_pct
+                s.heldout_endurance_after_pct,
+                s.miss.as_ref().map_or(String::new(), |m| format!(
+                    "  missed: {} ({})",
+                    m.cause.name(),
+                    m.detail
+                ))
             ),
             Err(e) => println!("{seed:5} failed: {e}"),
         }

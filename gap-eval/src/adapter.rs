@@ -14,6 +14,8 @@ use gap::flight::FlightRecord;
 use gap::logs::record_from_log;
 use gap::model::Model;
 
+use serde::Serialize;
+
 use crate::EvalError;
 
 /// What the diagnosis said, as names and numbers.
@@ -38,6 +40,59 @@ pub struct Outcome {
     /// The diagnosis's headline held-out gap before and after (endurance %, else phase power
     /// %, else voltage RMSE V).
     pub heldout_headline: (f64, f64),
+    /// What the effect search saw, for the study's account of its misses.
+    pub search: SearchEvidence,
+}
+
+/// What the effect search saw on one scenario: each effect fitted alone, what was dropped on
+/// the held-out flights, and whether a selected resistance was kept unnamed. Read from the
+/// diagnosis's own `candidates`, `rejected` and `healthy_resistance`; nothing here feeds back.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SearchEvidence {
+    /// The baseline's training χ² is within noise, so the search selects nothing.
+    pub within_noise: bool,
+    /// Training χ² of the baseline (no effect).
+    pub baseline_chi2: f64,
+    /// Cross-validated χ² of the baseline.
+    pub baseline_cv_chi2: Option<f64>,
+    /// The smallest drop of χ² (and of the BIC and the cross-validated χ²) the search takes
+    /// for an effect.
+    pub min_delta_chi2: f64,
+    /// Every effect observable on the training flights, fitted alone, best training χ² first.
+    pub singles: Vec<SingleEvidence>,
+    /// Every model of two or more effects the search tried, in the order tried.
+    pub combinations: Vec<CombinationEvidence>,
+    /// Effects selected on the training flights and dropped on the held-out ones.
+    pub dropped_on_heldout: Vec<String>,
+    /// A selected `internal_resistance` stayed within a healthy pack's band (kept in the model,
+    /// not named).
+    pub resistance_kept_unnamed: bool,
+}
+
+/// A model of two or more effects the search tried on the training flights.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CombinationEvidence {
+    /// Effect names, in the order added.
+    pub effects: Vec<String>,
+    /// Training χ².
+    pub chi2: f64,
+    /// Cross-validated χ² (computed when the BIC was promising).
+    pub cv_chi2: Option<f64>,
+    /// Held-out mean absolute endurance error with these effects, %.
+    pub heldout_endurance_pct: Option<f64>,
+}
+
+/// One effect fitted alone on the training flights.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SingleEvidence {
+    /// Effect name.
+    pub effect: String,
+    /// Training χ².
+    pub chi2: f64,
+    /// Cross-validated χ² (only the three best singles get one, when promising).
+    pub cv_chi2: Option<f64>,
+    /// Held-out mean absolute endurance error with this effect alone, %.
+    pub heldout_endurance_pct: Option<f64>,
 }
 
 /// Diagnoses `train` against `heldout` with the rig curve as baseline (the default rule for
@@ -98,7 +153,56 @@ pub fn diagnose_blind_with(
         heldout_endurance_before_pct: d.baseline.heldout.endurance_pct,
         heldout_endurance_after_pct: d.after.heldout.endurance_pct,
         heldout_headline: (d.baseline.heldout.headline(), d.after.heldout.headline()),
+        search: search_evidence(&d),
     })
+}
+
+fn search_evidence(d: &gap::diagnose::Diagnosis) -> SearchEvidence {
+    let baseline_chi2 = d
+        .candidates
+        .iter()
+        .find(|c| c.effects.is_empty())
+        .map_or(f64::NAN, |c| c.chi2);
+    let mut singles: Vec<SingleEvidence> = d
+        .candidates
+        .iter()
+        .filter(|c| c.effects.len() == 1)
+        .map(|c| SingleEvidence {
+            effect: c.effects[0].name().to_owned(),
+            chi2: c.chi2,
+            cv_chi2: c.cv_chi2,
+            heldout_endurance_pct: c.heldout.endurance_pct,
+        })
+        .collect();
+    singles.sort_by(|a, b| a.chi2.total_cmp(&b.chi2));
+    SearchEvidence {
+        within_noise: d.within_noise,
+        baseline_chi2,
+        baseline_cv_chi2: d
+            .candidates
+            .iter()
+            .find(|c| c.effects.is_empty())
+            .and_then(|c| c.cv_chi2),
+        min_delta_chi2: DiagnoseOptions::default().thresholds.min_delta_bic,
+        singles,
+        combinations: d
+            .candidates
+            .iter()
+            .filter(|c| c.effects.len() > 1)
+            .map(|c| CombinationEvidence {
+                effects: c.effects.iter().map(|e| e.name().to_owned()).collect(),
+                chi2: c.chi2,
+                cv_chi2: c.cv_chi2,
+                heldout_endurance_pct: c.heldout.endurance_pct,
+            })
+            .collect(),
+        dropped_on_heldout: d
+            .rejected
+            .iter()
+            .map(|r| r.effect.name().to_owned())
+            .collect(),
+        resistance_kept_unnamed: d.healthy_resistance.is_some(),
+    }
 }
 
 /// One battery type's curve as the diagnosis learned it from the training flights.

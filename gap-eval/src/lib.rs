@@ -169,6 +169,156 @@ pub struct ScenarioResult {
     pub heldout_endurance_after_pct: Option<f64>,
     /// Headline held-out gap before and after (as the diagnosis defines it).
     pub heldout_headline: (f64, f64),
+    /// Why a strictly scored library effect was missed (`None` when right or not such a run).
+    pub miss: Option<Miss>,
+    /// What the effect search saw (every effect alone, the combinations tried).
+    pub search: adapter::SearchEvidence,
+}
+
+/// Where the effect search lost a library effect it should have named: the study's account,
+/// read against the truth from what the search saw ([`adapter::SearchEvidence`]).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Miss {
+    /// The step that lost it.
+    pub cause: MissCause,
+    /// The numbers behind the cause, in words.
+    pub detail: String,
+    /// The true effect fitted alone (on the training flights) would have lowered the held-out
+    /// endurance error below the baseline's (`None`: no cut-off flight held out, or the effect
+    /// was not fitted).
+    pub true_alone_helps: Option<bool>,
+}
+
+/// The step of the effect search that lost a library effect, first that applies in this order.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MissCause {
+    /// The baseline's training χ² was within noise: nothing is searched.
+    WithinNoise,
+    /// The effect is not observable on these training flights (e.g. no perching phase).
+    NotObservable,
+    /// Fitted alone, it lowers the training χ² by less than the search's smallest step.
+    BelowSensitivity,
+    /// Named, but another selected effect has the larger share of the gap.
+    OutShared,
+    /// An extra resistance selected but within a healthy pack's band, so kept unnamed.
+    KeptUnnamed,
+    /// Selected on the training flights, dropped on the held-out ones.
+    DroppedOnHeldout,
+    /// Another effect alone fits the training flights better.
+    Outranked,
+    /// The best single on the training flights, but no effect passed cross-validation.
+    NotCrossValidated,
+    /// The best single on the training flights, but another of the three best had the lower
+    /// cross-validated χ².
+    OutrankedInCrossValidation,
+}
+
+impl MissCause {
+    /// Snake-case name, as in the JSON.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::WithinNoise => "within_noise",
+            Self::NotObservable => "not_observable",
+            Self::BelowSensitivity => "below_sensitivity",
+            Self::OutShared => "out_shared",
+            Self::KeptUnnamed => "kept_unnamed",
+            Self::DroppedOnHeldout => "dropped_on_heldout",
+            Self::Outranked => "outranked",
+            Self::NotCrossValidated => "not_cross_validated",
+            Self::OutrankedInCrossValidation => "outranked_in_cross_validation",
+        }
+    }
+}
+
+/// Why the search missed `truth` (a library effect's name) on an outcome whose top effect is not
+/// it.
+pub fn classify_miss(truth: &str, o: &adapter::Outcome) -> Miss {
+    let ev = &o.search;
+    let alone = ev.singles.iter().find(|s| s.effect == truth);
+    let true_alone_helps =
+        alone.and_then(|a| Some(a.heldout_endurance_pct? < o.heldout_endurance_before_pct?));
+    let miss = |cause, detail: String| Miss {
+        cause,
+        detail,
+        true_alone_helps,
+    };
+    if ev.within_noise {
+        return miss(
+            MissCause::WithinNoise,
+            format!("baseline training χ² {:.1} within noise", ev.baseline_chi2),
+        );
+    }
+    let Some(alone) = alone else {
+        return miss(
+            MissCause::NotObservable,
+            format!("{truth} not observable on the training flights"),
+        );
+    };
+    let drop = ev.baseline_chi2 - alone.chi2;
+    if drop < ev.min_delta_chi2 {
+        return miss(
+            MissCause::BelowSensitivity,
+            format!(
+                "{truth} alone lowers the training χ² by {drop:.1} (the search's step {:.0})",
+                ev.min_delta_chi2
+            ),
+        );
+    }
+    if o.verdict.iter().any(|v| v == truth) {
+        return miss(
+            MissCause::OutShared,
+            format!("verdict {}", o.verdict.join("+")),
+        );
+    }
+    if truth == "internal_resistance" && ev.resistance_kept_unnamed {
+        return miss(
+            MissCause::KeptUnnamed,
+            "selected within a healthy pack's resistance".to_owned(),
+        );
+    }
+    if ev.dropped_on_heldout.iter().any(|v| v == truth) {
+        return miss(
+            MissCause::DroppedOnHeldout,
+            format!("verdict {}", verdict_words(&o.verdict)),
+        );
+    }
+    let best = &ev.singles[0];
+    if best.effect != truth {
+        return miss(
+            MissCause::Outranked,
+            format!(
+                "{} alone fits the training flights better by χ² {:.1} ({truth} lowers it by {drop:.1})",
+                best.effect,
+                alone.chi2 - best.chi2
+            ),
+        );
+    }
+    if o.verdict.is_empty() {
+        miss(
+            MissCause::NotCrossValidated,
+            format!(
+                "cross-validated χ² {} against the baseline's step {:.0}",
+                alone
+                    .cv_chi2
+                    .map_or("not computed".to_owned(), |c| format!("{c:.1}")),
+                ev.min_delta_chi2
+            ),
+        )
+    } else {
+        miss(
+            MissCause::OutrankedInCrossValidation,
+            format!("verdict {}", o.verdict.join("+")),
+        )
+    }
+}
+
+fn verdict_words(v: &[String]) -> String {
+    if v.is_empty() {
+        "none".to_owned()
+    } else {
+        v.join("+")
+    }
 }
 
 impl ScenarioResult {
@@ -242,6 +392,12 @@ pub fn score(truth: &Truth, family: &Family, o: &adapter::Outcome) -> ScenarioRe
         heldout_endurance_before_pct: o.heldout_endurance_before_pct,
         heldout_endurance_after_pct: o.heldout_endurance_after_pct,
         heldout_headline: o.heldout_headline,
+        miss: (strict_scored
+            && !strict_correct
+            && kind.named_in_library()
+            && kind != EffectKind::None)
+            .then(|| classify_miss(kind.name(), o)),
+        search: o.search.clone(),
     }
 }
 
@@ -325,6 +481,10 @@ pub struct GroupSummary {
     pub max_worse_pp: Option<f64>,
     /// Median held-out shrinkage over library effects with impact ≥ 2 %, fraction.
     pub median_shrinkage: Option<f64>,
+    /// The library effects with impact ≥ 2 % that were missed, by the step that lost them
+    /// ([`MissCause`]): (cause, runs, runs where the true effect alone would have lowered the
+    /// held-out endurance error).
+    pub library_misses: Vec<(MissCause, usize, usize)>,
 }
 
 fn rate(p: (usize, usize)) -> Option<f64> {
@@ -367,6 +527,18 @@ impl GroupSummary {
             .map(|r| r.shrinkage())
             .collect();
         shr.sort_by(f64::total_cmp);
+        let mut library_misses: Vec<(MissCause, usize, usize)> = Vec::new();
+        for m in rs.iter().filter_map(|r| r.miss.as_ref()) {
+            let helps = usize::from(m.true_alone_helps == Some(true));
+            match library_misses.iter_mut().find(|c| c.0 == m.cause) {
+                Some(c) => {
+                    c.1 += 1;
+                    c.2 += helps;
+                }
+                None => library_misses.push((m.cause, 1, helps)),
+            }
+        }
+        library_misses.sort();
         Self {
             name,
             split: if rs.iter().all(|r| !r.tuning) {
@@ -408,6 +580,7 @@ impl GroupSummary {
                     0.5 * (shr[n / 2 - 1] + shr[n / 2])
                 }
             }),
+            library_misses,
         }
     }
 }
@@ -628,6 +801,16 @@ mod tests {
             unexplained_reasons: Vec::new(),
             unexplained_by_chi2: unexplained,
             unexplained_by_systematic: unexplained,
+            search: adapter::SearchEvidence {
+                within_noise: false,
+                baseline_chi2: 100.0,
+                baseline_cv_chi2: Some(110.0),
+                min_delta_chi2: 12.0,
+                singles: Vec::new(),
+                combinations: Vec::new(),
+                dropped_on_heldout: Vec::new(),
+                resistance_kept_unnamed: false,
+            },
         }
     }
 
@@ -742,5 +925,101 @@ mod tests {
                     .all(|f| !is_tuning_family(f))
             );
         }
+    }
+
+    fn single(effect: &str, chi2: f64, heldout: f64) -> adapter::SingleEvidence {
+        adapter::SingleEvidence {
+            effect: effect.to_owned(),
+            chi2,
+            cv_chi2: None,
+            heldout_endurance_pct: Some(heldout),
+        }
+    }
+
+    #[test]
+    fn misses_are_put_on_the_step_that_lost_them() {
+        let fam = Family::parse("lipo/lab-1hz/paper").unwrap();
+        let t = truth(EffectKind::CapacityFade, 950.0);
+        let with = |verdict: &[(&str, f64)], singles: Vec<adapter::SingleEvidence>| {
+            let mut o = outcome(verdict, false, 5.0, 4.0);
+            o.search.singles = singles;
+            o
+        };
+        let cause = |o: &Outcome| {
+            score(&t, &fam, o)
+                .miss
+                .map(|m| (m.cause, m.true_alone_helps))
+        };
+        // Right: no miss.
+        let o = with(
+            &[("capacity_fade", 1.0)],
+            vec![single("capacity_fade", 50.0, 1.0)],
+        );
+        assert_eq!(cause(&o), None);
+        // Fitted alone it lowers χ² by 8 < 12.
+        let o = with(&[], vec![single("capacity_fade", 92.0, 4.0)]);
+        assert_eq!(cause(&o), Some((MissCause::BelowSensitivity, Some(true))));
+        // Another single fits better; the true one alone would not have helped held out.
+        let o = with(
+            &[("peukert", 1.0)],
+            vec![
+                single("peukert", 40.0, 3.0),
+                single("capacity_fade", 60.0, 6.0),
+            ],
+        );
+        assert_eq!(cause(&o), Some((MissCause::Outranked, Some(false))));
+        // Best single, selected, dropped on the held-out flights.
+        let mut o = with(&[], vec![single("capacity_fade", 40.0, 6.0)]);
+        o.search.dropped_on_heldout = vec!["capacity_fade".into()];
+        assert_eq!(cause(&o), Some((MissCause::DroppedOnHeldout, Some(false))));
+        // Best single, nothing passed cross-validation.
+        let o = with(&[], vec![single("capacity_fade", 40.0, 2.0)]);
+        assert_eq!(cause(&o), Some((MissCause::NotCrossValidated, Some(true))));
+        // Best single, another of the three best won on cross-validation.
+        let o = with(
+            &[("peukert", 1.0)],
+            vec![
+                single("capacity_fade", 40.0, 2.0),
+                single("peukert", 41.0, 2.0),
+            ],
+        );
+        assert_eq!(
+            cause(&o),
+            Some((MissCause::OutrankedInCrossValidation, Some(true)))
+        );
+        // Named, with the smaller share.
+        let o = with(
+            &[("capacity_fade", 0.2), ("peukert", 0.7)],
+            vec![single("capacity_fade", 40.0, 2.0)],
+        );
+        assert_eq!(cause(&o), Some((MissCause::OutShared, Some(true))));
+        // Not observable, and within noise (searched for nothing).
+        let o = with(&[], vec![single("peukert", 40.0, 2.0)]);
+        assert_eq!(cause(&o), Some((MissCause::NotObservable, None)));
+        let mut o = with(&[], vec![single("capacity_fade", 40.0, 2.0)]);
+        o.search.within_noise = true;
+        assert_eq!(cause(&o), Some((MissCause::WithinNoise, Some(true))));
+        // An extra resistance kept unnamed.
+        let t = truth(EffectKind::InternalResistance, 950.0);
+        let mut o = with(&[], vec![single("internal_resistance", 40.0, 2.0)]);
+        o.search.resistance_kept_unnamed = true;
+        let m = score(&t, &fam, &o).miss.unwrap();
+        assert_eq!(m.cause, MissCause::KeptUnnamed);
+        // none, outside and small effects are not library misses.
+        let o = with(&[("peukert", 1.0)], vec![single("peukert", 40.0, 2.0)]);
+        assert!(
+            score(&truth(EffectKind::None, 1000.0), &fam, &o)
+                .miss
+                .is_none()
+        );
+        assert!(
+            score(&truth(EffectKind::CapacityFade, 990.0), &fam, &o)
+                .miss
+                .is_none()
+        );
+        // Rolled up per group.
+        let r = score(&truth(EffectKind::CapacityFade, 950.0), &fam, &o);
+        let g = GroupSummary::of("g".into(), &[&r, &r]);
+        assert_eq!(g.library_misses, vec![(MissCause::NotObservable, 2, 0)]);
     }
 }

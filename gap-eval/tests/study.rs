@@ -247,3 +247,29 @@ fn the_systematic_rule_flags_a_draining_payload_and_not_its_clean_world() {
         drained.unexplained_reasons
     );
 }
+
+/// The study's account of a miss reads the search's own evidence: on tuning seed 6 (an NMC
+/// pack with a Peukert loss of 4 % endurance impact) the extra series resistance alone fits the
+/// training flights better than the Peukert loss alone, and the verdict is empty.
+#[test]
+fn a_miss_is_put_on_the_step_that_lost_it() {
+    let families = select_families("tuning").unwrap();
+    let s = gap_eval::run_scenario(6, &families).unwrap();
+    assert_eq!(s.truth, "peukert");
+    assert!(s.strict_scored && !s.strict_correct, "{}", s.verdict);
+    let m = s
+        .miss
+        .as_ref()
+        .expect("a missed library effect has a cause");
+    assert_eq!(m.cause, gap_eval::MissCause::Outranked, "{}", m.detail);
+    assert!(m.detail.starts_with("internal_resistance"), "{}", m.detail);
+    // The evidence is the search's: every single is fitted from the baseline, so none has a
+    // larger χ², and they come best first.
+    let ev = &s.search;
+    assert!(ev.singles.len() >= 2);
+    assert!(ev.singles.windows(2).all(|w| w[0].chi2 <= w[1].chi2));
+    assert!(ev.singles.iter().all(|x| x.chi2 <= ev.baseline_chi2));
+    assert_eq!(ev.singles[0].effect, "internal_resistance");
+    let peukert = ev.singles.iter().find(|x| x.effect == "peukert").unwrap();
+    assert!(ev.baseline_chi2 - peukert.chi2 > ev.min_delta_chi2);
+}

@@ -160,6 +160,27 @@ pub fn run(args: Args) -> Result<()> {
         ]);
     }
     print!("{}", t.render());
+    let misses: Vec<&gap_eval::GroupSummary> = rep
+        .groups
+        .iter()
+        .filter(|g| g.name.starts_with("all ") && !g.library_misses.is_empty())
+        .collect();
+    if !misses.is_empty() {
+        println!();
+        println!(
+            "library effects (impact >= 2 %) missed, by the step of the search that lost them \
+             (in brackets: runs where the true effect alone would have lowered the held-out \
+             endurance error)"
+        );
+        for g in misses {
+            let parts: Vec<String> = g
+                .library_misses
+                .iter()
+                .map(|(c, n, helps)| format!("{} {n} ({helps})", c.name()))
+                .collect();
+            println!("  {}: {}", g.name, parts.join(", "));
+        }
+    }
     if !rep.failed.is_empty() {
         println!();
         println!("scenarios that did not run:");
