@@ -508,3 +508,63 @@ fn battery_learn_from_one_flight_says_what_it_could_not_teach() {
         v["fit"]["warnings"]
     );
 }
+
+/// Effects the flights cannot tell from the verdict are listed, with the same numbers in the
+/// text and the JSON: an NMC pack with a Peukert loss, whose healthy series resistance alone
+/// fits the training flights best and is kept unnamed, leaves the Peukert loss among them.
+#[test]
+fn effects_the_flights_cannot_tell_apart_are_listed() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("set");
+    ok(&[
+        "simulate-flights",
+        "-o",
+        out.to_str().unwrap(),
+        "--family",
+        "nmc/lab-1hz/paper",
+        "--effect",
+        "peukert=0.034",
+        "--seed",
+        "6",
+    ]);
+    let params = dir.path().join("params.toml");
+    ok(&[
+        "fit",
+        out.join("rig-sweep.csv").to_str().unwrap(),
+        "--volts",
+        "12.5",
+        "-o",
+        params.to_str().unwrap(),
+    ]);
+    let args = |json: bool| {
+        let mut a = vec![
+            "gap".to_owned(),
+            out.join("train").to_str().unwrap().to_owned(),
+            "--holdout".to_owned(),
+            out.join("heldout").to_str().unwrap().to_owned(),
+            "--params".to_owned(),
+            params.to_str().unwrap().to_owned(),
+        ];
+        if json {
+            a.push("--json".to_owned());
+        }
+        a
+    };
+    let a: Vec<String> = args(true);
+    let v = json(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    let looks = v["look_alikes"].as_array().unwrap();
+    assert!(looks.iter().any(|l| l["effect"] == "peukert"), "{looks:?}");
+    let a: Vec<String> = args(false);
+    let text = ok(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    for l in looks {
+        let drop = l["training_chi2_drop"].as_f64().unwrap();
+        let alone = l["heldout_alone"].as_f64().unwrap();
+        let line = format!(
+            "also fits these flights: {} — alone it lowers the training χ² by {drop:.0}",
+            l["effect"].as_str().unwrap()
+        );
+        assert!(text.contains(&line), "{line}\n{text}");
+        assert!(text.contains(&format!("to {alone:.3} %")), "{text}");
+    }
+    assert!(text.contains("these flights cannot tell it from the verdict"));
+}

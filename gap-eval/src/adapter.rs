@@ -42,6 +42,9 @@ pub struct Outcome {
     pub heldout_headline: (f64, f64),
     /// What the effect search saw, for the study's account of its misses.
     pub search: SearchEvidence,
+    /// Effects outside the verdict that the flights cannot tell from it (the diagnosis's
+    /// `look_alikes`), best first.
+    pub look_alikes: Vec<String>,
 }
 
 /// What the effect search saw on one scenario: each effect fitted alone, what was dropped on
@@ -154,6 +157,11 @@ pub fn diagnose_blind_with(
         heldout_endurance_after_pct: d.after.heldout.endurance_pct,
         heldout_headline: (d.baseline.heldout.headline(), d.after.heldout.headline()),
         search: search_evidence(&d),
+        look_alikes: d
+            .look_alikes
+            .iter()
+            .map(|l| l.effect.name().to_owned())
+            .collect(),
     })
 }
 

@@ -173,6 +173,8 @@ pub struct ScenarioResult {
     pub miss: Option<Miss>,
     /// What the effect search saw (every effect alone, the combinations tried).
     pub search: adapter::SearchEvidence,
+    /// Effects the diagnosis lists as fitting these flights as well as its verdict.
+    pub look_alikes: Vec<String>,
 }
 
 /// Where the effect search lost a library effect it should have named: the study's account,
@@ -398,6 +400,7 @@ pub fn score(truth: &Truth, family: &Family, o: &adapter::Outcome) -> ScenarioRe
             && kind != EffectKind::None)
             .then(|| classify_miss(kind.name(), o)),
         search: o.search.clone(),
+        look_alikes: o.look_alikes.clone(),
     }
 }
 
@@ -485,6 +488,12 @@ pub struct GroupSummary {
     /// ([`MissCause`]): (cause, runs, runs where the true effect alone would have lowered the
     /// held-out endurance error).
     pub library_misses: Vec<(MissCause, usize, usize)>,
+    /// Library effects with impact ≥ 2 % whose truth is the top effect or among the
+    /// look-alikes the diagnosis lists: (runs, such runs).
+    pub library_named_or_look_alike: (usize, usize),
+    /// `none` worlds with an empty verdict that still list look-alikes: (runs with an empty
+    /// verdict, such runs).
+    pub none_with_look_alikes: (usize, usize),
 }
 
 fn rate(p: (usize, usize)) -> Option<f64> {
@@ -581,6 +590,13 @@ impl GroupSummary {
                 }
             }),
             library_misses,
+            library_named_or_look_alike: count(&lib, &|r| {
+                r.strict_correct || r.look_alikes.contains(&r.truth)
+            }),
+            none_with_look_alikes: count(
+                &|r| r.truth == "none" && r.verdict_effects_empty(),
+                &|r| !r.look_alikes.is_empty(),
+            ),
         }
     }
 }
@@ -801,6 +817,7 @@ mod tests {
             unexplained_reasons: Vec::new(),
             unexplained_by_chi2: unexplained,
             unexplained_by_systematic: unexplained,
+            look_alikes: Vec::new(),
             search: adapter::SearchEvidence {
                 within_noise: false,
                 baseline_chi2: 100.0,

@@ -733,6 +733,8 @@ pub struct Diagnosis {
     pub candidates: Vec<Candidate>,
     /// Effects selected on the training flights but dropped on the held-out ones.
     pub rejected: Vec<Rejected>,
+    /// Effects not in the verdict that these flights cannot tell from it ([`look_alikes`]).
+    pub look_alikes: Vec<LookAlike>,
     /// Stability of each selected parameter between the early and the late half.
     pub stability: Vec<Stability>,
     /// What remains after the selected effects (when the gap is not within noise).
@@ -783,6 +785,74 @@ impl Diagnosis {
         }
         p
     }
+}
+
+/// An effect outside the verdict that the flights cannot tell from it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct LookAlike {
+    /// The effect.
+    pub effect: Effect,
+    /// How much it lowers the training χ² fitted alone.
+    pub training_chi2_drop: f64,
+    /// The same for the effect that fits the training flights best alone.
+    pub best_single: Effect,
+    /// Its drop of the training χ².
+    pub best_single_chi2_drop: f64,
+    /// The held-out headline error (endurance %, else energy per phase %, else voltage V)
+    /// before any effect, and with this effect alone.
+    pub heldout_before: f64,
+    /// With this effect alone.
+    pub heldout_alone: f64,
+}
+
+/// Effects the flights cannot tell from the verdict: fitted alone, each lowers the training χ²
+/// by more than the search's step (`min_delta_chi2`) and by at least half as much as the
+/// effect that fits best alone, and alone it also lowers the held-out headline error. The
+/// search names one of several such effects, and with eight flights of one pack flown alike
+/// the choice often rests on the voltage's level rather than on what the effects physically
+/// change (a fade, a Peukert loss and a healthy pack's own resistance all shorten a flight; the
+/// blind study's `outranked` misses, issue 9, session 18). An extra series resistance kept
+/// unnamed as a healthy pack's (`resistance_kept_unnamed`) is in the model already, so it is not
+/// listed. Read from the search's own candidates: nothing is fitted again. Best first.
+pub fn look_alikes(
+    candidates: &[Candidate],
+    verdict: &[Effect],
+    resistance_kept_unnamed: bool,
+    min_delta_chi2: f64,
+) -> Vec<LookAlike> {
+    let Some(base) = candidates.iter().find(|c| c.effects.is_empty()) else {
+        return Vec::new();
+    };
+    let level_of = |e: &LevelErrors| e.endurance_pct.or(e.phase_energy_pct).or(e.voltage_rmse_v);
+    let Some(before) = level_of(&base.heldout) else {
+        return Vec::new();
+    };
+    let singles: Vec<&Candidate> = candidates.iter().filter(|c| c.effects.len() == 1).collect();
+    let Some(best) = singles.iter().min_by(|a, b| a.chi2.total_cmp(&b.chi2)) else {
+        return Vec::new();
+    };
+    let best_drop = base.chi2 - best.chi2;
+    let mut out: Vec<LookAlike> = singles
+        .iter()
+        .filter(|c| !verdict.contains(&c.effects[0]))
+        .filter(|c| !(resistance_kept_unnamed && c.effects[0] == Effect::InternalResistance))
+        .filter_map(|c| {
+            let drop = base.chi2 - c.chi2;
+            let alone = level_of(&c.heldout)?;
+            (drop > min_delta_chi2 && drop >= 0.5 * best_drop && alone < before).then(|| {
+                LookAlike {
+                    effect: c.effects[0],
+                    training_chi2_drop: drop,
+                    best_single: best.effects[0],
+                    best_single_chi2_drop: best_drop,
+                    heldout_before: before,
+                    heldout_alone: alone,
+                }
+            })
+        })
+        .collect();
+    out.sort_by(|a, b| b.training_chi2_drop.total_cmp(&a.training_chi2_drop));
+    out
 }
 
 /// The series resistance of one battery type in the selected model against what a healthy
@@ -1878,6 +1948,16 @@ pub fn diagnose_with<C: PowerCurve>(
         (verdict, effects)
     };
     let residual = (!within_noise).then(|| describe_residual(&after_held, &after.heldout));
+    let look_alikes = if within_noise {
+        Vec::new()
+    } else {
+        look_alikes(
+            &selection.candidates,
+            &verdict,
+            healthy_resistance.is_some(),
+            th.min_delta_bic,
+        )
+    };
     Ok(Diagnosis {
         verdict,
         unexplained,
@@ -1900,6 +1980,7 @@ pub fn diagnose_with<C: PowerCurve>(
             after: after_h,
         },
         candidates: selection.candidates,
+        look_alikes,
         rejected,
         stability,
         residual,
@@ -2220,5 +2301,60 @@ mod tests {
                 "{window:?}"
             );
         }
+    }
+
+    #[test]
+    fn look_alikes_fit_nearly_as_well_and_close_the_held_out_gap_too() {
+        let cand = |effects: &[Effect], chi2: f64, heldout_pct: f64| Candidate {
+            effects: effects.to_vec(),
+            values: vec![0.1; effects.len()],
+            chi2,
+            bic: chi2,
+            cv_chi2: None,
+            heldout: LevelErrors {
+                endurance_pct: Some(heldout_pct),
+                phase_energy_pct: None,
+                voltage_rmse_v: None,
+                chi2_per_obs: 1.0,
+            },
+        };
+        let candidates = vec![
+            cand(&[], 1000.0, 6.0),
+            cand(&[Effect::InternalResistance], 200.0, 4.0),
+            // Half the best drop or more, and closes held-out: a look-alike.
+            cand(&[Effect::Peukert], 550.0, 4.5),
+            cand(&[Effect::CapacityFade], 400.0, 3.0),
+            // Under half the best drop.
+            cand(&[Effect::AirDensity], 700.0, 3.0),
+            // Fits, but alone makes the held-out flights worse.
+            cand(&[Effect::ControlOverhead], 300.0, 6.5),
+            cand(&[Effect::InternalResistance, Effect::Peukert], 150.0, 3.5),
+        ];
+        let names = |v: Vec<LookAlike>| v.iter().map(|l| l.effect).collect::<Vec<_>>();
+        let verdict = [Effect::InternalResistance];
+        let l = look_alikes(&candidates, &verdict, false, 12.0);
+        assert_eq!(names(l.clone()), [Effect::CapacityFade, Effect::Peukert]);
+        assert_eq!(l[0].best_single, Effect::InternalResistance);
+        assert!((l[0].best_single_chi2_drop - 800.0).abs() < 1e-9);
+        assert!((l[0].training_chi2_drop - 600.0).abs() < 1e-9);
+        assert_eq!((l[0].heldout_before, l[0].heldout_alone), (6.0, 3.0));
+        // An empty verdict lists the best single too, unless it is a healthy pack's resistance
+        // kept in the model.
+        assert_eq!(
+            names(look_alikes(&candidates, &[], false, 12.0)),
+            [
+                Effect::InternalResistance,
+                Effect::CapacityFade,
+                Effect::Peukert
+            ]
+        );
+        assert_eq!(
+            names(look_alikes(&candidates, &[], true, 12.0)),
+            [Effect::CapacityFade, Effect::Peukert]
+        );
+        // A drop under the search's step is never a look-alike.
+        assert!(look_alikes(&candidates, &verdict, false, 700.0).is_empty());
+        // No baseline candidate: nothing to compare with.
+        assert!(look_alikes(&candidates[1..], &verdict, false, 12.0).is_empty());
     }
 }

@@ -168,6 +168,7 @@ struct Json<'a> {
     headline: &'a gap::diagnose::HeadlineGap,
     residual: &'a Option<gap::diagnose::Residual>,
     rejected: &'a [gap::diagnose::Rejected],
+    look_alikes: &'a [gap::diagnose::LookAlike],
     batteries: &'a [gap::battery::BatteryFit],
     r#where: &'a gap::diagnose::Where,
     baseline: &'a gap::diagnose::TrainHeld,
@@ -461,6 +462,7 @@ pub fn run(args: Args) -> Result<()> {
             headline: &d.headline,
             residual: &d.residual,
             rejected: &d.rejected,
+            look_alikes: &d.look_alikes,
             batteries: &d.batteries,
             r#where: &d.r#where,
             baseline: &d.baseline,
@@ -575,11 +577,7 @@ pub fn run(args: Args) -> Result<()> {
         print!("{}", t.render());
         println!(
             "held-out {} gap: {:.3} {unit} before, {:.3} {unit} after",
-            match d.headline.level {
-                gap::diagnose::Level::Endurance => "endurance",
-                gap::diagnose::Level::PhaseEnergy => "phase-energy",
-                gap::diagnose::Level::Voltage => "voltage",
-            },
+            level_word(d.headline.level),
             d.headline.before,
             d.headline.after
         );
@@ -592,6 +590,23 @@ pub fn run(args: Args) -> Result<()> {
     print_why(d);
     for r in &d.rejected {
         println!("dropped {}: {}", r.effect.name(), r.reason);
+    }
+    for l in &d.look_alikes {
+        println!(
+            "also fits these flights: {} — alone it lowers the training χ² by {:.0} (the best alone, {}: {:.0}) and the held-out {} error from {:.3} to {:.3} {unit}",
+            l.effect.name(),
+            l.training_chi2_drop,
+            l.best_single.name(),
+            l.best_single_chi2_drop,
+            level_word(d.headline.level),
+            l.heldout_before,
+            l.heldout_alone
+        );
+    }
+    if !d.look_alikes.is_empty() {
+        println!(
+            "  these flights cannot tell it from the verdict; flights that differ from them in power, payload or depth of discharge would"
+        );
     }
     if let Some(h) = &d.healthy_resistance {
         let types: Vec<String> = h
@@ -625,4 +640,12 @@ pub fn run(args: Args) -> Result<()> {
         println!("wrote {}", w.display());
     }
     Ok(())
+}
+
+fn level_word(level: gap::diagnose::Level) -> &'static str {
+    match level {
+        gap::diagnose::Level::Endurance => "endurance",
+        gap::diagnose::Level::PhaseEnergy => "phase-energy",
+        gap::diagnose::Level::Voltage => "voltage",
+    }
 }

@@ -181,6 +181,16 @@ pub fn run(args: Args) -> Result<()> {
             println!("  {}: {}", g.name, parts.join(", "));
         }
     }
+    for g in rep.groups.iter().filter(|g| g.name.starts_with("all ")) {
+        let (n, k) = g.library_named_or_look_alike;
+        let (m, j) = g.none_with_look_alikes;
+        if n + m > 0 {
+            println!(
+                "{}: library effects (impact >= 2 %) named, or listed as fitting the flights as well (`also fits`): {k}/{n}; `none` worlds with an empty verdict that list such effects: {j}/{m}",
+                g.name
+            );
+        }
+    }
     if !rep.failed.is_empty() {
         println!();
         println!("scenarios that did not run:");
