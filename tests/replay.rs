@@ -535,3 +535,28 @@ fn a_real_telemetry_log_to_the_low_battery_voltage_is_scored() {
     }
     assert!(half["predicted_remaining_s"].is_null(), "{half}");
 }
+
+/// A submarine's telemetry log (ArduSub, real) is neither scored by `replay` nor diagnosed by
+/// `gap`: each says the vehicle does not hover, and how the log says what it is.
+#[test]
+fn a_vehicle_that_does_not_hover_is_refused_with_its_reason() {
+    let sub = "flightlog/tests/data/tlog/clydemcqueen+ardusub_log_tools";
+    let out = run(&["replay", "--params", &params(), sub]);
+    assert_eq!(out.status.code(), Some(2));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("the vehicle is a ground or water vehicle according to the log (ArduSub"),
+        "{text}"
+    );
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::copy(
+        Path::new(sub).join("small.tlog"),
+        dir.path().join("small.tlog"),
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("flights.toml"), "battery_energy_wh = 50\n").unwrap();
+    let out = run(&["gap", dir.path().to_str().unwrap()]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("does not hover"), "{err}");
+}

@@ -410,8 +410,29 @@ impl Flight {
         }
     }
 
+    /// Why the flight is not one of a hovering vehicle, when its metadata's `vehicle` says it
+    /// is a fixed-wing aircraft or a ground or water vehicle (an ArduPlane, ArduRover or ArduSub
+    /// log, a MAVLink `MAV_TYPE` of a plane, boat or submarine): its flight phases are not
+    /// inferred, and the paper's endurance model (eqs. 1–9: rotor power at hover) does not
+    /// describe it. `None` for a hovering vehicle or one the metadata does not name.
+    pub fn not_hovering(&self) -> Option<String> {
+        let kind = self.meta.vehicle?;
+        if kind.hovers() != Some(false) {
+            return None;
+        }
+        let source = self
+            .metadata
+            .get("vehicle")
+            .map_or_else(String::new, |v| format!(" according to the {}", v.source));
+        Some(format!(
+            "the vehicle is {}{source}: it does not hover, and hoverbench's endurance models are for hovering vehicles (multirotors, helicopters, VTOLs)",
+            kind.words()
+        ))
+    }
+
     /// Infers the phases from the samples and [`Flight::capabilities`], unless they were
-    /// logged (a phase column).
+    /// logged (a phase column). A vehicle that does not hover ([`Flight::not_hovering`]) gets
+    /// none, and a warning says why.
     pub fn infer_phases(&mut self) {
         let logged = match &self.phase_source {
             PhaseSource::Logged => true,
@@ -420,6 +441,15 @@ impl Flight {
         };
         if logged {
             self.phase_source = PhaseSource::Logged;
+            return;
+        }
+        if let Some(why) = self.not_hovering() {
+            self.samples.phase = None;
+            self.phase_source = PhaseSource::None;
+            let warning = format!("phases not inferred: {why}");
+            if !self.warnings.contains(&warning) {
+                self.warnings.push(warning);
+            }
             return;
         }
         let caps = self.capabilities();

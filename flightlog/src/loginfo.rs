@@ -40,6 +40,29 @@ impl VehicleKind {
         }
     }
 
+    /// In words, for messages (`a fixed-wing aircraft`).
+    pub fn words(self) -> &'static str {
+        match self {
+            Self::Multirotor => "a multirotor",
+            Self::Helicopter => "a helicopter",
+            Self::Vtol => "a VTOL",
+            Self::FixedWing => "a fixed-wing aircraft",
+            Self::Rover => "a ground or water vehicle",
+            Self::Other => "a vehicle of another kind",
+        }
+    }
+
+    /// Whether this kind of vehicle hovers on its rotors: `Some(false)` for a fixed-wing
+    /// aircraft and a ground or water vehicle (whose logs the paper's model does not describe),
+    /// `None` when the log does not say what it is.
+    pub fn hovers(self) -> Option<bool> {
+        match self {
+            Self::Multirotor | Self::Helicopter | Self::Vtol => Some(true),
+            Self::FixedWing | Self::Rover => Some(false),
+            Self::Other => None,
+        }
+    }
+
     /// The kind of a MAVLink `MAV_TYPE` (PX4's `MAV_TYPE` parameter,
     /// `vehicle_status.system_type`).
     pub fn from_mav_type(mav_type: u32) -> Self {

@@ -210,3 +210,46 @@ fn explicit_file_list() {
     assert_eq!(set.skipped.len(), 2);
     assert!(matches!(set.skipped[1].reason, FlightLogError::Io { .. }));
 }
+
+/// A vehicle that does not hover gets no flight phases, and a warning says why; the same
+/// samples from a multirotor are given their phases.
+#[test]
+fn a_vehicle_that_does_not_hover_gets_no_phases() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let mut csv = String::from("time_s,voltage_v,current_a,altitude_m\n");
+    for k in 0..120 {
+        let t = f64::from(k);
+        let (i, z) = if (10..110).contains(&k) {
+            (12.0, 5.0)
+        } else {
+            (0.3, 0.0)
+        };
+        csv.push_str(&format!("{t},{:.3},{i},{z}\n", 12.4 - 0.005 * t));
+    }
+    for (kind, phases) in [
+        ("fixed_wing", false),
+        ("rover", false),
+        ("multirotor", true),
+        ("helicopter", true),
+    ] {
+        write(d, "f.csv", &csv);
+        write(d, "f.toml", format!("vehicle = \"{kind}\"\ncells = 3\n"));
+        let set = FlightSet::read(d).unwrap();
+        let f = &set.flights[0];
+        assert_eq!(f.samples.phase.is_some(), phases, "{kind}");
+        let warned = f.warnings.iter().any(|w| w.contains("does not hover"));
+        assert_eq!(warned, !phases, "{kind}: {:?}", f.warnings);
+        assert_eq!(f.not_hovering().is_some(), !phases, "{kind}");
+        if !phases {
+            assert_eq!(f.phase_source, PhaseSource::None);
+            assert!(
+                f.not_hovering()
+                    .unwrap()
+                    .contains("according to the sidecar"),
+                "{:?}",
+                f.not_hovering()
+            );
+        }
+    }
+}

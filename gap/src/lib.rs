@@ -106,6 +106,15 @@ pub enum GapError {
         /// What is wrong (with the CSV's line when it is in the file).
         message: String,
     },
+    /// The flight's vehicle does not hover (a fixed-wing aircraft, a rover, a boat or a
+    /// submarine): the paper's model does not describe it.
+    #[error("flight {flight}: {why}")]
+    NotHovering {
+        /// The flight.
+        flight: String,
+        /// Which vehicle, and how the log says so.
+        why: String,
+    },
     /// No flights to train on or to check against.
     #[error("no {0} flights: the diagnosis needs at least one")]
     NoFlights(&'static str),

@@ -18,6 +18,12 @@ pub const DEFAULT_CUTOFF_CELL_V: f64 = 3.0;
 /// Converts a read log into the diagnosis' form. Masses and powers a log does not give are
 /// left as NaN (only a rig baseline needs them; [`require_masses`] checks).
 pub fn record_from_log(f: &Flight) -> Result<FlightRecord, GapError> {
+    if let Some(why) = f.not_hovering() {
+        return Err(GapError::NotHovering {
+            flight: f.name.clone(),
+            why,
+        });
+    }
     let m = &f.meta;
     let missing = |what: &str| GapError::Metadata {
         flight: f.name.clone(),

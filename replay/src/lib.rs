@@ -280,6 +280,9 @@ pub fn replay_flight_with_history(
             trace: None,
         })
     };
+    if let Some(why) = flight.not_hovering() {
+        return Err(skip(why, history));
+    }
     let span = match cutoff::detect(flight) {
         Ok(span) => span,
         Err(why) => {
