@@ -6,22 +6,42 @@ use serde_json::Value;
 mod common;
 use common::{data_path, json, ok, root, run, shared_path};
 
+/// `hoverbench simulate-flights` into `DIR/set` with the options given (family, effect, seed):
+/// the set's folder.
+fn simulate(dir: &std::path::Path, options: &[&str]) -> std::path::PathBuf {
+    let out = dir.join("set");
+    ok(&[&["simulate-flights", "-o", out.to_str().unwrap()], options].concat());
+    out
+}
+
+/// The rig sweep of a simulated set fitted into `DIR/params.toml`, as a bench's would be.
+fn fit_rig(dir: &std::path::Path, set: &std::path::Path) -> std::path::PathBuf {
+    let params = dir.join("params.toml");
+    ok(&[
+        "fit",
+        set.join("rig-sweep.csv").to_str().unwrap(),
+        "--volts",
+        "12.5",
+        "-o",
+        params.to_str().unwrap(),
+    ]);
+    params
+}
+
 #[test]
 fn simulated_set_is_diagnosed_from_its_files_without_the_truth() {
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("set");
-    let o = out.to_str().unwrap();
-    ok(&[
-        "simulate-flights",
-        "-o",
-        o,
-        "--family",
-        "nmc/fc-10hz/paper",
-        "--effect",
-        "capacity_fade=0.12",
-        "--seed",
-        "4",
-    ]);
+    let out = simulate(
+        dir.path(),
+        &[
+            "--family",
+            "nmc/fc-10hz/paper",
+            "--effect",
+            "capacity_fade=0.12",
+            "--seed",
+            "4",
+        ],
+    );
     // The truth lies beside the flights, in a file the reader does not take.
     let truth: Value =
         serde_json::from_slice(&std::fs::read(out.join("truth.json")).unwrap()).unwrap();
@@ -33,15 +53,7 @@ fn simulated_set_is_diagnosed_from_its_files_without_the_truth() {
     )
     .unwrap();
     // The rig sweep fits into a parameter file as a bench's would.
-    let params = dir.path().join("params.toml");
-    ok(&[
-        "fit",
-        out.join("rig-sweep.csv").to_str().unwrap(),
-        "--volts",
-        "12.5",
-        "-o",
-        params.to_str().unwrap(),
-    ]);
+    let params = fit_rig(dir.path(), &out);
     let train = out.join("train");
     let held = out.join("heldout");
     let v = json(&[
@@ -213,16 +225,10 @@ const CRAZYFLIE_RMSE_V: f64 = 0.106;
 #[test]
 fn text_and_json_report_the_same_shares_and_errors() {
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("set");
-    ok(&[
-        "simulate-flights",
-        "-o",
-        out.to_str().unwrap(),
-        "--effect",
-        "internal_resistance=0.06",
-        "--seed",
-        "5",
-    ]);
+    let out = simulate(
+        dir.path(),
+        &["--effect", "internal_resistance=0.06", "--seed", "5"],
+    );
     let (train, held) = (out.join("train"), out.join("heldout"));
     let args = [
         "gap",
@@ -288,14 +294,7 @@ fn table_i_summary_says_how_much_the_printed_eq8_accounts_for() {
 #[test]
 fn one_flight_is_localised_and_says_how_many_more_the_attribution_needs() {
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("set");
-    ok(&[
-        "simulate-flights",
-        "-o",
-        out.to_str().unwrap(),
-        "--seed",
-        "6",
-    ]);
+    let out = simulate(dir.path(), &["--seed", "6"]);
     let one = std::fs::read_dir(out.join("train"))
         .unwrap()
         .map(|e| e.unwrap().path())
@@ -376,18 +375,17 @@ fn dataflash_folder_leaves_out_a_fixed_wing_log() {
 #[test]
 fn unexplained_says_why_in_text_and_json_alike() {
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("set");
-    ok(&[
-        "simulate-flights",
-        "-o",
-        out.to_str().unwrap(),
-        "--family",
-        "nmc/lab-1hz/paper",
-        "--effect",
-        "draining_payload=0.05",
-        "--seed",
-        "2",
-    ]);
+    let out = simulate(
+        dir.path(),
+        &[
+            "--family",
+            "nmc/lab-1hz/paper",
+            "--effect",
+            "draining_payload=0.05",
+            "--seed",
+            "2",
+        ],
+    );
     let (train, held) = (out.join("train"), out.join("heldout"));
     // `None`: the default rule, which is the systematic one.
     for given in [Some("chi2"), Some("systematic"), None] {
@@ -441,16 +439,10 @@ fn unexplained_says_why_in_text_and_json_alike() {
 #[test]
 fn battery_learn_from_one_flight_says_what_it_could_not_teach() {
     let dir = tempfile::tempdir().unwrap();
-    let set = dir.path().join("set");
-    ok(&[
-        "simulate-flights",
-        "-o",
-        set.to_str().unwrap(),
-        "--family",
-        "lfp/fc-10hz/varied",
-        "--seed",
-        "20",
-    ]);
+    let set = simulate(
+        dir.path(),
+        &["--family", "lfp/fc-10hz/varied", "--seed", "20"],
+    );
     let params = dir.path().join("params.toml");
     let p = params.to_str().unwrap();
     ok(&["fit", set.join("rig-sweep.csv").to_str().unwrap(), "-o", p]);
@@ -520,27 +512,18 @@ fn battery_learn_from_one_flight_says_what_it_could_not_teach() {
 #[test]
 fn effects_the_flights_cannot_tell_apart_are_listed() {
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("set");
-    ok(&[
-        "simulate-flights",
-        "-o",
-        out.to_str().unwrap(),
-        "--family",
-        "nmc/lab-1hz/paper",
-        "--effect",
-        "peukert=0.034",
-        "--seed",
-        "6",
-    ]);
-    let params = dir.path().join("params.toml");
-    ok(&[
-        "fit",
-        out.join("rig-sweep.csv").to_str().unwrap(),
-        "--volts",
-        "12.5",
-        "-o",
-        params.to_str().unwrap(),
-    ]);
+    let out = simulate(
+        dir.path(),
+        &[
+            "--family",
+            "nmc/lab-1hz/paper",
+            "--effect",
+            "peukert=0.034",
+            "--seed",
+            "6",
+        ],
+    );
+    let params = fit_rig(dir.path(), &out);
     let args = |json: bool| {
         let mut a = vec![
             "gap".to_owned(),
