@@ -482,6 +482,49 @@ fn replay_eval_input_average_moves_only_logs_faster_than_the_window() {
     assert_eq!(errors(&a, "static_model"), errors(&b, "static_model"));
 }
 
+/// `replay-eval --zero-current` (and `replay --zero-current`): the online estimator reads the
+/// current sensor's zero on the ground before take-off. A 10 Hz flight controller's log, whose
+/// Hall sensor is off by a few tenths of an ampere, moves; a voltage-only log has no current to
+/// correct and does not; the baselines never change; the settings say so.
+#[test]
+fn replay_eval_zero_current_moves_only_logs_with_a_current() {
+    let run_eval = |family: &str, extra: &[&str]| -> Value {
+        let mut a = ONE_SCENARIO.to_vec();
+        a.extend(["--families", family, "--json"]);
+        a.extend_from_slice(extra);
+        serde_json::from_str(&ok(&a)).unwrap()
+    };
+    let errors = |v: &Value, method: &str| -> Vec<f64> {
+        v["scenarios"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .flat_map(|sc| sc["replay"]["flights"].as_array().unwrap())
+            .flat_map(|f| f["checkpoints"].as_array().unwrap())
+            .map(|c| c["error_pct"][method].as_f64().unwrap_or(f64::NAN))
+            .collect()
+    };
+    let fc = "lipo/fc-10hz/paper";
+    let (a, b) = (run_eval(fc, &[]), run_eval(fc, &["--zero-current"]));
+    assert!(!errors(&a, "online").is_empty());
+    assert_ne!(errors(&a, "online"), errors(&b, "online"));
+    assert_eq!(errors(&a, "px4"), errors(&b, "px4"));
+    assert_eq!(b["online"]["zero_current"], true);
+    let vonly = "lipo/vonly-5hz/paper";
+    let (a, b) = (run_eval(vonly, &[]), run_eval(vonly, &["--zero-current"]));
+    assert!(!errors(&a, "online").is_empty());
+    assert_eq!(errors(&a, "online"), errors(&b, "online"));
+    let mut text_args = ONE_SCENARIO.to_vec();
+    text_args.extend(["--families", fc, "--zero-current"]);
+    let text = ok(&text_args);
+    assert!(
+        text.starts_with("online estimator: the current sensor's zero read before take-off"),
+        "{text}"
+    );
+    // `replay` takes the flag too.
+    ok(&["replay", "--params", &params(), DATA, "--zero-current"]);
+}
+
 /// `replay-eval` says what the online estimator ran with: a first line in the text, `online`
 /// in the JSON (the opt-ins and the band that goes with them).
 #[test]

@@ -159,6 +159,12 @@ int32_t hb_online_set_plan(hb_online_state *state, const hb_plan_segment *segmen
  * --pack-history prints it): HB_STATE_CAPACITY_SCALE, its factor, sigma 0.04. */
 int32_t hb_online_observe(hb_online_state *state, uint32_t which, double value, double sigma);
 
+/* Reads the current sensor's zero on the ground before take-off (enable non-zero): the mean
+ * difference between the logged current and the idle power's over the HB_PHASE_GROUND samples
+ * before the first flying one, taken off every later current. Call before the first
+ * hb_online_update; HB_ERR_OPTION after it. */
+int32_t hb_online_zero_current(hb_online_state *state, int32_t enable);
+
 /* sizeof(hb_online_state). */
 size_t hb_online_state_size(void);
 

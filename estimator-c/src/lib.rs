@@ -492,6 +492,30 @@ pub unsafe extern "C" fn hb_online_observe(
     }
 }
 
+/// Reads the current sensor's zero on the ground before take-off (`enable` non-zero) or not
+/// (`OnlineConfig::zero_current`): the mean difference between the logged current and the idle
+/// power's (the blob's avionics and payload powers) over the samples passed with
+/// `HB_PHASE_GROUND` before the first flying one, taken off every later current. Call it after
+/// `hb_online_init` or `hb_online_init_with` and before the first `hb_online_update`. Returns
+/// `HB_OK`, or `HB_ERR_OPTION` once a sample has been taken (nothing changes).
+/// # Safety
+/// `state` points to an `HbOnlineState` (or is null, which is `HB_ERR_NULL`).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn hb_online_zero_current(state: *mut HbOnlineState, enable: i32) -> i32 {
+    if state.is_null() {
+        return HB_ERR_NULL;
+    }
+    // SAFETY: the caller passes a valid `hb_online_state`.
+    let Some(est) = (unsafe { &mut *state }).estimator_mut() else {
+        return HB_ERR_NOT_INITIALISED;
+    };
+    if est.set_zero_current(enable != 0) {
+        HB_OK
+    } else {
+        HB_ERR_OPTION
+    }
+}
+
 /// Bytes of [`HbOnlineState`].
 #[unsafe(no_mangle)]
 pub extern "C" fn hb_online_state_size() -> usize {

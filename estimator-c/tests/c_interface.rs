@@ -134,8 +134,9 @@ fn c_program_agrees_with_the_rust_estimator() {
 }
 
 /// `hb_online_init_with` (1 s windows, the thrust-limit end, on a blob with a thrust limit) is
-/// `OnlineConfig::with_opt_ins`, and a window that is not a number is `HB_ERR_OPTION` (the C
-/// program checks it).
+/// `OnlineConfig::with_opt_ins`, `hb_online_zero_current` is `OnlineConfig::zero_current`, and
+/// a window that is not a number, or the zero read switched after the first sample, is
+/// `HB_ERR_OPTION` (the C program checks it).
 #[test]
 fn c_program_with_the_opt_ins_agrees_with_the_rust_estimator() {
     agrees(true);
@@ -155,6 +156,7 @@ fn agrees(opt_ins: bool) {
             supply_voltage_v: 10.6,
         });
         config = config.with_opt_ins(1.0, true);
+        config.zero_current = true;
     }
     let mut blob = [0u8; estimator::params::MAX_BLOB_LEN];
     let n = p.encode(&mut blob).unwrap();

@@ -1116,3 +1116,65 @@ fn the_opt_ins_come_with_their_band() {
     let sized = band_at_half(&c);
     assert!(sized < wide, "{sized} vs {wide}");
 }
+
+/// The current sensor's zero, read on the ground before take-off against the idle power
+/// (`OnlineConfig::zero_current`): a sensor that reads 0.6 A high is read as such within the
+/// noise of 50 ground samples, and the remaining time at half the flight is then as good as
+/// with a calibrated sensor; off, or without phases, the offset stays in the current.
+#[test]
+fn the_current_sensors_zero_is_read_before_take_off() {
+    let config = OnlineConfig::default();
+    let with_zero = OnlineConfig {
+        zero_current: true,
+        ..config
+    };
+    let est = estimator_with(&config);
+    let clean = fly(
+        NOMINAL,
+        est.idle_power_w(),
+        est.model_hover_power_w(),
+        10.0,
+        true,
+        3,
+    );
+    let mut offset = Flight {
+        samples: clean.samples.clone(),
+        soc: clean.soc.clone(),
+        end_s: clean.end_s,
+    };
+    for s in &mut offset.samples {
+        s.current_a = s.current_a.map(|i| i + 0.6);
+    }
+    let err = |f: &Flight, c: &OnlineConfig| {
+        let mut est = estimator_with(c);
+        let out = run(f, &mut est);
+        (remaining_error(f, &out, 0.5), est.current_offset_a())
+    };
+    let (calibrated, _) = err(&clean, &config);
+    let (off, none) = err(&offset, &config);
+    let (on, read) = err(&offset, &with_zero);
+    assert_eq!(none, None);
+    let read = read.expect("an offset read on 50 ground samples");
+    assert!((read - 0.6).abs() < 0.05, "offset read {read}");
+    assert!(
+        (on - calibrated).abs() < 0.005 && off.abs() > on.abs() + 0.01,
+        "at half the flight: calibrated {calibrated:.4}, offset uncorrected {off:.4}, corrected {on:.4}"
+    );
+    // A calibrated sensor reads a zero of about nothing, and the prediction barely moves.
+    let (clean_on, zero) = err(&clean, &with_zero);
+    assert!(zero.unwrap().abs() < 0.05, "{zero:?}");
+    assert!((clean_on - calibrated).abs() < 0.005);
+    // Without phases nothing says when the robot is on the ground: no correction.
+    let mut no_phase = Flight {
+        samples: offset.samples.clone(),
+        soc: offset.soc.clone(),
+        end_s: offset.end_s,
+    };
+    for s in &mut no_phase.samples {
+        s.phase = None;
+    }
+    let (a, none) = err(&no_phase, &with_zero);
+    let (b, _) = err(&no_phase, &config);
+    assert_eq!(none, None);
+    assert_eq!(a.to_bits(), b.to_bits());
+}

@@ -1128,7 +1128,7 @@ pub fn to_json(study: &Study) -> serde_json::Value {
 }
 
 /// The online estimator's defaults with overrides `key=value,key=value` (the field names of
-/// [`OnlineConfig`]'s numbers; `thrust_limit_end=0` turns the thrust-limit end off, `=1` on): what the
+/// [`OnlineConfig`]'s numbers; `thrust_limit_end` and `zero_current` are 0 for off, 1 for on): what the
 /// `sweep` and `trace` examples read from `SWEEP_CFG`.
 pub fn config_from_spec(spec: &str) -> Result<OnlineConfig, String> {
     let mut c = OnlineConfig::default();
@@ -1142,6 +1142,10 @@ pub fn config_from_spec(spec: &str) -> Result<OnlineConfig, String> {
             .map_err(|_| format!("{k}: {v:?} is not a number"))?;
         if k == "thrust_limit_end" {
             c.thrust_limit_end = v != 0.0;
+            continue;
+        }
+        if k == "zero_current" {
+            c.zero_current = v != 0.0;
             continue;
         }
         let slot = match k {

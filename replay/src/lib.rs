@@ -137,9 +137,13 @@ pub fn online_from_file(
     file: &estimator::file::ParamsFile,
     thrust_limit_end: bool,
     input_average_s: f64,
+    zero_current: bool,
 ) -> Result<Box<dyn OnlineBuilder>, String> {
     online::FileOnline::from_file(file).map(|o| {
-        Box::new(o.with_opt_ins(input_average_s, thrust_limit_end)) as Box<dyn OnlineBuilder>
+        Box::new(
+            o.with_opt_ins(input_average_s, thrust_limit_end)
+                .with_zero_current(zero_current),
+        ) as Box<dyn OnlineBuilder>
     })
 }
 

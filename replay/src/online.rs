@@ -67,6 +67,14 @@ impl FileOnline {
         self
     }
 
+    /// The same with the current sensor's zero read on the ground before take-off, or not
+    /// ([`OnlineConfig::zero_current`]).
+    #[must_use]
+    pub fn with_zero_current(mut self, on: bool) -> Self {
+        self.config.zero_current = on;
+        self
+    }
+
     /// From parameters, a pack model and the filter's configuration.
     pub fn new(params: Params, battery: BatteryModel, config: OnlineConfig) -> Self {
         Self {

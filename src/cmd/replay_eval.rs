@@ -46,6 +46,10 @@ pub struct Args {
     /// `replay --thrust-limit-end` does (the study measures each world's limit sweep)
     #[arg(long)]
     thrust_limit_end: bool,
+    /// The online estimator reads the current sensor's zero on the ground before take-off, as
+    /// `replay --zero-current` does
+    #[arg(long)]
+    zero_current: bool,
 }
 
 /// Runs the subcommand.
@@ -62,8 +66,11 @@ pub fn run(args: Args) -> Result<()> {
         seeds: args.seed..end,
         families,
         threads: args.threads,
-        config: estimator::online::OnlineConfig::default()
-            .with_opt_ins(args.input_average, args.thrust_limit_end),
+        config: estimator::online::OnlineConfig {
+            zero_current: args.zero_current,
+            ..estimator::online::OnlineConfig::default()
+                .with_opt_ins(args.input_average, args.thrust_limit_end)
+        },
         pack_history: args.pack_history,
         voltage_only: args.voltage_only,
     };
@@ -89,6 +96,7 @@ pub fn run(args: Args) -> Result<()> {
                 serde_json::json!({
                     "input_average_s": c.input_average_s,
                     "thrust_limit_end": c.thrust_limit_end,
+                    "zero_current": c.zero_current,
                     "end_soc_sigma": c.end_soc_sigma,
                     "pack_history": opts.pack_history,
                     "voltage_only": opts.voltage_only,
@@ -115,6 +123,9 @@ fn settings_line(
     }
     if c.thrust_limit_end {
         on.push("the thrust-limit end (flights with a current)".to_owned());
+    }
+    if c.zero_current {
+        on.push("the current sensor's zero read before take-off".to_owned());
     }
     if pack_history {
         on.push("the packs' history".to_owned());
