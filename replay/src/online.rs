@@ -339,6 +339,9 @@ impl OnlinePredictor for Online {
                 ("settled_curve_offset_v", self.settled_offset_v),
                 ("estimator_charge_ah", self.charge_as / 3600.0),
             ]
+            .into_iter()
+            .chain(self.est.current_offset_a().map(|o| ("current_offset_a", o)))
+            .collect()
         })
     }
 }
