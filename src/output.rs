@@ -346,6 +346,57 @@ pub fn write_atomic_checked(path: &Path, bytes: &[u8], inputs: &[PathBuf]) -> Re
     Ok(outfile::write_atomic_checked(path, bytes, inputs)?)
 }
 
+/// What the online estimator ran with, in words: the defaults, or the opt-ins and the band
+/// (`replay` and `replay-eval` print it first).
+pub fn online_settings_line(
+    c: &estimator::online::OnlineConfig,
+    pack_history: bool,
+    voltage_only: bool,
+) -> String {
+    let mut on = Vec::new();
+    if c.input_average_s > 0.0 {
+        on.push(format!("samples averaged over {} s", c.input_average_s));
+    }
+    if c.thrust_limit_end {
+        on.push("the thrust-limit end (flights with a current)".to_owned());
+    }
+    if c.zero_current {
+        on.push("the current sensor's zero read before take-off".to_owned());
+    }
+    if pack_history {
+        on.push("the packs' history".to_owned());
+    }
+    if voltage_only {
+        on.push("held-out flights without their current".to_owned());
+    }
+    if on.is_empty() {
+        "online estimator: the defaults".to_owned()
+    } else {
+        format!(
+            "online estimator: {}; band end_soc_sigma {}",
+            on.join(", "),
+            c.end_soc_sigma
+        )
+    }
+}
+
+/// The same as JSON: `input_average_s`, `thrust_limit_end`, `zero_current`, `end_soc_sigma`,
+/// `pack_history`, `voltage_only`.
+pub fn online_settings_json(
+    c: &estimator::online::OnlineConfig,
+    pack_history: bool,
+    voltage_only: bool,
+) -> serde_json::Value {
+    serde_json::json!({
+        "input_average_s": c.input_average_s,
+        "thrust_limit_end": c.thrust_limit_end,
+        "zero_current": c.zero_current,
+        "end_soc_sigma": c.end_soc_sigma,
+        "pack_history": pack_history,
+        "voltage_only": voltage_only,
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -521,8 +521,25 @@ fn replay_eval_zero_current_moves_only_logs_with_a_current() {
         text.starts_with("online estimator: the current sensor's zero read before take-off"),
         "{text}"
     );
-    // `replay` takes the flag too.
-    ok(&["replay", "--params", &params(), DATA, "--zero-current"]);
+    // `replay` takes the flag too, and says so first, in the text and in the JSON.
+    let text = ok(&["replay", "--params", &params(), DATA, "--zero-current"]);
+    assert!(
+        text.starts_with(
+            "online estimator: the current sensor's zero read before take-off; band end_soc_sigma 0.08\npx4 baseline:"
+        ),
+        "{text}"
+    );
+    let v: Value = serde_json::from_str(&ok(&[
+        "replay",
+        "--params",
+        &params(),
+        DATA,
+        "--zero-current",
+        "--json",
+    ]))
+    .unwrap();
+    assert_eq!(v["online"]["zero_current"], true);
+    assert_eq!(v["online"]["input_average_s"], 0.0);
 }
 
 /// `replay-eval` says what the online estimator ran with: a first line in the text, `online`

@@ -125,6 +125,16 @@ pub fn run(args: Args) -> Result<()> {
         trace_unscored: true,
     };
     let px4 = config.px4_battery();
+    let settings = estimator::online::OnlineConfig {
+        zero_current: args.zero_current,
+        ..estimator::online::OnlineConfig::default()
+            .with_opt_ins(args.input_average, args.thrust_limit_end)
+    };
+    let about = About {
+        px4: &px4,
+        line: crate::output::online_settings_line(&settings, args.pack_history, false),
+        json: crate::output::online_settings_json(&settings, args.pack_history, false),
+    };
     let bar = indicatif::ProgressBar::new(set.flights.len() as u64);
     bar.set_style(
         indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} flights, {elapsed}")
@@ -153,12 +163,12 @@ pub fn run(args: Args) -> Result<()> {
         }
     }
     if let Some(dir) = &args.out {
-        write_folder(&r, &px4, dir)?;
+        write_folder(&r, &about, dir)?;
     }
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&json(&r, &px4)?)?);
+        println!("{}", serde_json::to_string_pretty(&json(&r, &about)?)?);
     } else {
-        print!("{}", text(&r, &px4));
+        print!("{}", text(&r, &about));
         if let Some(dir) = &args.out {
             println!("wrote {}", dir.display());
         }
@@ -184,19 +194,29 @@ fn nothing_scored(r: &Replay) -> anyhow::Error {
     }
 }
 
+/// What the methods ran with: the PX4 baseline's cell voltages and the online estimator's
+/// options, in words and as JSON.
+struct About<'a> {
+    px4: &'a Px4Battery,
+    line: String,
+    json: serde_json::Value,
+}
+
 /// The JSON document: the replay's, with `px4_battery` (the cell voltages the PX4 baseline ran
-/// with).
-fn json(r: &Replay, px4: &Px4Battery) -> Result<serde_json::Value> {
+/// with) and `online` (the online estimator's options).
+fn json(r: &Replay, about: &About<'_>) -> Result<serde_json::Value> {
     let mut v = r.to_json();
     if let Some(o) = v.as_object_mut() {
-        o.insert("px4_battery".to_owned(), serde_json::to_value(px4)?);
+        o.insert("px4_battery".to_owned(), serde_json::to_value(about.px4)?);
+        o.insert("online".to_owned(), about.json.clone());
     }
     Ok(v)
 }
 
-/// The text: which cell voltages the PX4 baseline ran with, then the replay's table.
-fn text(r: &Replay, px4: &Px4Battery) -> String {
-    format!("{px4}\n{}", r.to_text())
+/// The text: the online estimator's options and the cell voltages the PX4 baseline ran with,
+/// then the replay's table.
+fn text(r: &Replay, about: &About<'_>) -> String {
+    format!("{}\n{}\n{}", about.line, about.px4, r.to_text())
 }
 
 fn flight_figure(f: &FlightReplay) -> ReplayFlightFigure {
@@ -231,7 +251,7 @@ fn trace_figure(name: &str, t: &replay::FlightTrace) -> ReplayFlightFigure {
     }
 }
 
-fn write_folder(r: &Replay, px4: &Px4Battery, dir: &std::path::Path) -> Result<()> {
+fn write_folder(r: &Replay, about: &About<'_>, dir: &std::path::Path) -> Result<()> {
     // every file it writes is named replay*: an earlier run's folder is replaced whole, a
     // folder holding anything else is refused
     let staged = outfile::StagedDir::owning(dir, |n| n.starts_with("replay"))?;
@@ -271,10 +291,10 @@ fn write_folder(r: &Replay, px4: &Px4Battery, dir: &std::path::Path) -> Result<(
     }
     outfile::write_atomic(
         &staged.path().join("replay.json"),
-        serde_json::to_string_pretty(&json(r, px4)?)?.as_bytes(),
+        serde_json::to_string_pretty(&json(r, about)?)?.as_bytes(),
     )?;
     outfile::write_atomic(&staged.path().join("replay.csv"), r.to_csv().as_bytes())?;
-    outfile::write_atomic(&staged.path().join("replay.txt"), text(r, px4).as_bytes())?;
+    outfile::write_atomic(&staged.path().join("replay.txt"), text(r, about).as_bytes())?;
     staged.commit()?;
     Ok(())
 }

@@ -93,53 +93,16 @@ pub fn run(args: Args) -> Result<()> {
             // What the online estimator ran with, beside the numbers it gave.
             o.insert(
                 "online".to_owned(),
-                serde_json::json!({
-                    "input_average_s": c.input_average_s,
-                    "thrust_limit_end": c.thrust_limit_end,
-                    "zero_current": c.zero_current,
-                    "end_soc_sigma": c.end_soc_sigma,
-                    "pack_history": opts.pack_history,
-                    "voltage_only": opts.voltage_only,
-                }),
+                crate::output::online_settings_json(c, opts.pack_history, opts.voltage_only),
             );
         }
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
-        println!("{}", settings_line(c, opts.pack_history, opts.voltage_only));
+        println!(
+            "{}",
+            crate::output::online_settings_line(c, opts.pack_history, opts.voltage_only)
+        );
         print!("{}", table(&s));
     }
     Ok(())
-}
-
-/// What the online estimator ran with, in words: the defaults, or the opt-ins and the band.
-fn settings_line(
-    c: &estimator::online::OnlineConfig,
-    pack_history: bool,
-    voltage_only: bool,
-) -> String {
-    let mut on = Vec::new();
-    if c.input_average_s > 0.0 {
-        on.push(format!("samples averaged over {} s", c.input_average_s));
-    }
-    if c.thrust_limit_end {
-        on.push("the thrust-limit end (flights with a current)".to_owned());
-    }
-    if c.zero_current {
-        on.push("the current sensor's zero read before take-off".to_owned());
-    }
-    if pack_history {
-        on.push("the packs' history".to_owned());
-    }
-    if voltage_only {
-        on.push("held-out flights without their current".to_owned());
-    }
-    if on.is_empty() {
-        "online estimator: the defaults".to_owned()
-    } else {
-        format!(
-            "online estimator: {}; band end_soc_sigma {}",
-            on.join(", "),
-            c.end_soc_sigma
-        )
-    }
 }
