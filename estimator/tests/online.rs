@@ -589,8 +589,10 @@ mod properties {
                 1..120,
             ),
             plan in any::<bool>(),
+            zero in any::<bool>(),
         ) {
             let mut est = base_estimator();
+            prop_assert!(est.set_zero_current(zero));
             if plan {
                 est.set_plan(
                     &[Segment::Hover { duration_min: 1.0 }, Segment::AttachedUntilReserve { reserve_fraction: 0.5 }, Segment::HoverUntilEmpty],
@@ -608,6 +610,7 @@ mod properties {
                 };
                 let e = est.update(&s);
                 prop_assert!(finite(&e), "{:?} after {:?}", e, s);
+                prop_assert!(est.current_offset_a().is_none_or(f64::is_finite));
                 prop_assert!(e.is_valid() || e.flags & Estimate::FLAG_NOT_INITIALISED != 0);
             }
         }
