@@ -453,25 +453,28 @@ const ONE_SCENARIO: [&str; 5] = ["replay-eval", "--scenarios", "1", "--seed", "2
 /// `replay-eval --input-average 1`: the online estimator averages the samples over 1 s windows.
 /// A 1 Hz lab log is taken sample by sample all the same (its JSON is the same), a 10 Hz
 /// flight controller's is not (its online errors move); the baselines never change.
+/// `replay-eval` on [`ONE_SCENARIO`] of `family` with `extra` flags, as JSON.
+fn run_eval(family: &str, extra: &[&str]) -> Value {
+    let mut a = ONE_SCENARIO.to_vec();
+    a.extend(["--families", family, "--json"]);
+    a.extend_from_slice(extra);
+    serde_json::from_str(&ok(&a)).unwrap()
+}
+
+/// Every checkpoint's error of `method` in a `replay-eval` JSON (NaN where it gave none).
+fn errors(v: &Value, method: &str) -> Vec<f64> {
+    v["scenarios"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|sc| sc["replay"]["flights"].as_array().unwrap())
+        .flat_map(|f| f["checkpoints"].as_array().unwrap())
+        .map(|c| c["error_pct"][method].as_f64().unwrap_or(f64::NAN))
+        .collect()
+}
+
 #[test]
 fn replay_eval_input_average_moves_only_logs_faster_than_the_window() {
-    let run_eval = |family: &str, extra: &[&str]| -> Value {
-        let mut a = ONE_SCENARIO.to_vec();
-        a.extend(["--families", family, "--json"]);
-        a.extend_from_slice(extra);
-        serde_json::from_str(&ok(&a)).unwrap()
-    };
-    let errors = |v: &Value, method: &str| -> Vec<f64> {
-        let mut out = Vec::new();
-        for sc in v["scenarios"].as_array().unwrap() {
-            for f in sc["replay"]["flights"].as_array().unwrap() {
-                for c in f["checkpoints"].as_array().unwrap() {
-                    out.push(c["error_pct"][method].as_f64().unwrap_or(f64::NAN));
-                }
-            }
-        }
-        out
-    };
     let lab = "lipo/lab-1hz/paper";
     let (a, b) = (run_eval(lab, &[]), run_eval(lab, &["--input-average", "1"]));
     assert_eq!(errors(&a, "online"), errors(&b, "online"));
@@ -488,22 +491,6 @@ fn replay_eval_input_average_moves_only_logs_faster_than_the_window() {
 /// correct and does not; the baselines never change; the settings say so.
 #[test]
 fn replay_eval_zero_current_moves_only_logs_with_a_current() {
-    let run_eval = |family: &str, extra: &[&str]| -> Value {
-        let mut a = ONE_SCENARIO.to_vec();
-        a.extend(["--families", family, "--json"]);
-        a.extend_from_slice(extra);
-        serde_json::from_str(&ok(&a)).unwrap()
-    };
-    let errors = |v: &Value, method: &str| -> Vec<f64> {
-        v["scenarios"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .flat_map(|sc| sc["replay"]["flights"].as_array().unwrap())
-            .flat_map(|f| f["checkpoints"].as_array().unwrap())
-            .map(|c| c["error_pct"][method].as_f64().unwrap_or(f64::NAN))
-            .collect()
-    };
     let fc = "lipo/fc-10hz/paper";
     let (a, b) = (run_eval(fc, &[]), run_eval(fc, &["--zero-current"]));
     assert!(!errors(&a, "online").is_empty());
