@@ -220,7 +220,7 @@ fn replay_says_which_cell_voltages_the_px4_baseline_used_and_export_px4_writes_t
     assert_eq!(lihv["chemistry"], "lihv");
     let out = common::ok(&["replay", "--params", REPLAY_PARAMS, flight]);
     assert!(
-        out.starts_with("px4 baseline: BAT1_V_EMPTY 3.60 V, BAT1_V_CHARGED 4.05 V per cell (PX4 set up for lihv cells"),
+        out.starts_with("online estimator: the defaults\npx4 baseline: BAT1_V_EMPTY 3.60 V, BAT1_V_CHARGED 4.05 V per cell (PX4 set up for lihv cells"),
         "{out}"
     );
     // The same section said to be LiFePO4: PX4 set up for LiFePO4, with the values
