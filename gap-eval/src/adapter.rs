@@ -166,11 +166,7 @@ pub fn diagnose_blind_with(
 }
 
 fn search_evidence(d: &gap::diagnose::Diagnosis) -> SearchEvidence {
-    let baseline_chi2 = d
-        .candidates
-        .iter()
-        .find(|c| c.effects.is_empty())
-        .map_or(f64::NAN, |c| c.chi2);
+    let baseline = d.candidates.iter().find(|c| c.effects.is_empty());
     let mut singles: Vec<SingleEvidence> = d
         .candidates
         .iter()
@@ -185,12 +181,8 @@ fn search_evidence(d: &gap::diagnose::Diagnosis) -> SearchEvidence {
     singles.sort_by(|a, b| a.chi2.total_cmp(&b.chi2));
     SearchEvidence {
         within_noise: d.within_noise,
-        baseline_chi2,
-        baseline_cv_chi2: d
-            .candidates
-            .iter()
-            .find(|c| c.effects.is_empty())
-            .and_then(|c| c.cv_chi2),
+        baseline_chi2: baseline.map_or(f64::NAN, |c| c.chi2),
+        baseline_cv_chi2: baseline.and_then(|c| c.cv_chi2),
         min_delta_chi2: DiagnoseOptions::default().thresholds.min_delta_bic,
         singles,
         combinations: d
