@@ -1,7 +1,7 @@
 //! The truth simulator of the gap study: flights of a hovering robot from this crate's own
 //! battery, propulsion and sensor physics, rendered as the files a pilot would bring — a
-//! flight-log CSV (`time_s,voltage_v[,current_a],phase,altitude_m`) and its TOML metadata
-//! sidecar — so that whatever reads them (the `gap` diagnosis, through `flightlog`) sees only
+//! flight-log CSV (`time_s,voltage_v[,current_a],phase,altitude_m[,motor1_us,…]`) and its TOML
+//! metadata sidecar — so that whatever reads them (the `gap` diagnosis, through `flightlog`) sees only
 //! what it would see in the field.
 //!
 //! It depends on neither the diagnosis nor the rig simulator and shares no table, constant or
@@ -13,9 +13,12 @@
 //!   to the paper's rig curve, thrust limit against voltage and air density (a motor's resistive
 //!   drop at full throttle), lead losses; a robot lands when it has lacked thrust for about two
 //!   seconds (a low-passed demand), not on one control spike; the physics steps at 0.1 s
-//!   whatever the log rate;
+//!   whatever the log rate; the motors' ESC commands from the drive each rotor's speed needs
+//!   (back-EMF plus a winding drop, the flight's own propellers, trims and winding
+//!   temperature), and the rig's two sweeps with their commands ([`Robot::rig_sweeps`]);
 //! - logging ([`Logging`]): 1–50 Hz, offset and scale errors of the voltage and current
-//!   sensors, noise, quantisation, dropped samples and bursts, clock jitter, current optional
+//!   sensors, noise, quantisation, dropped samples and bursts, clock jitter, current optional,
+//!   the motor commands logged by flight controllers (not by a lab logger)
 //!   ([`simulate_with`] and [`SensorErrors`] fly a flight with calibrated sensors instead, for an
 //!   ablation; [`simulate`] is unchanged);
 //! - effects a scenario withholds ([`EffectKind`]): each of the diagnosis's library effects in
@@ -31,7 +34,7 @@
 //! let effect = Withheld { kind: EffectKind::CapacityFade, magnitude: 0.1 };
 //! let set = generate(&family, &effect, 7);
 //! assert_eq!((set.train.len(), set.heldout.len()), (8, 4));
-//! assert!(set.train[0].csv.starts_with("time_s,voltage_v,current_a,phase,altitude_m\n"));
+//! assert!(set.train[0].csv.starts_with("time_s,voltage_v,current_a,phase,altitude_m,motor1_us,"));
 //! assert!(set.train[0].toml.contains("cells = 3"));
 //! // A faded pack flies shorter.
 //! assert!(set.truth.endurance_impact_pct() < -5.0);
@@ -48,7 +51,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 pub use mission::{FlightPlan, HALL_CEILING_M, Leg, plans};
-pub use robot::{Propulsion, Robot};
+pub use robot::{Propulsion, RigStep, RigSweeps, Robot};
 pub use simulate::{
     FlightEnd, FlightTruth, PackTruth, SensorErrors, SimFlight, pack_truth, simulate,
     simulate_with, simulate_with_truth,

@@ -55,6 +55,11 @@ pub struct Propulsion {
     pub motor_drop_per_v: f64,
     /// Lead resistance per rotor, Ω.
     pub lead_resistance_ohm: f64,
+    /// The ESC's calibrated range of commands, µs: below the first the motor does not turn
+    /// (the ESC's deadband above the flight controller's lowest output); at the second it
+    /// switches the supply through in full. In between the motor sees `duty·V`,
+    /// `duty = (us − zero)/(full − zero)` ([`Self::command_us`]).
+    pub esc_range_us: (f64, f64),
 }
 
 /// Least squares with non-negative coefficients by trying every subset of the basis (4 terms).
@@ -193,6 +198,9 @@ impl Propulsion {
             max_thrust_g_at_12v6: 260.0,
             motor_drop_per_v: motor_drop_for(150.0 / 260.0, 9.0, 12.6),
             lead_resistance_ohm,
+            // A hobby ESC calibrated to a 1000–2000 µs output starts the motor a little above
+            // the bottom of that range.
+            esc_range_us: (1040.0, 2000.0),
         }
     }
 
@@ -230,10 +238,40 @@ impl Propulsion {
     /// air lets the rotor spin a little faster but each turn carries less: the highest thrust
     /// falls, a little less than in proportion to the density.
     pub fn max_thrust_g(&self, volts: f64, rho: f64) -> f64 {
+        self.thrust_at_drive_g(volts, rho, 1.0)
+    }
+
+    /// Thrust of one rotor whose motor is driven at `drive_v` volts (the ESC's duty times its
+    /// supply) in air of density `rho`, its winding drop `drop_factor` times the rig's (a warm
+    /// winding resists more), g: the back-EMF `u` solves `drive = u + γ·f·(ρ/ρ_rig)·u²` and the
+    /// thrust is `∝ ρ·u²`, as at full throttle ([`Self::max_thrust_g`]).
+    pub fn thrust_at_drive_g(&self, drive_v: f64, rho: f64, drop_factor: f64) -> f64 {
         let d = rho / RIG_AIR_DENSITY_KG_M3;
-        let u = back_emf_v(volts, self.motor_drop_per_v * d);
+        let u = back_emf_v(drive_v, self.motor_drop_per_v * d * drop_factor);
         let u_ref = back_emf_v(12.6, self.motor_drop_per_v);
         self.max_thrust_g_at_12v6 * d * (u / u_ref).powi(2)
+    }
+
+    /// The drive voltage (duty times supply) at which one rotor turns fast enough to carry
+    /// `thrust_g` in air of density `rho`, V: the inverse of [`Self::thrust_at_drive_g`],
+    /// `u + γ·f·(ρ/ρ_rig)·u²` with `u` the back-EMF of that speed.
+    pub fn drive_for_thrust_v(&self, thrust_g: f64, rho: f64, drop_factor: f64) -> f64 {
+        let d = rho / RIG_AIR_DENSITY_KG_M3;
+        let u_ref = back_emf_v(12.6, self.motor_drop_per_v);
+        let u = u_ref * (thrust_g.max(0.0) / (self.max_thrust_g_at_12v6 * d)).sqrt();
+        u + self.motor_drop_per_v * d * drop_factor * u * u
+    }
+
+    /// The ESC command, µs, that asks for `duty` (0..1) of the supply.
+    pub fn command_us(&self, duty: f64) -> f64 {
+        let (zero, full) = self.esc_range_us;
+        zero + duty.clamp(0.0, 1.0) * (full - zero)
+    }
+
+    /// The duty (0..1) an ESC command of `us` asks for.
+    pub fn duty_of_us(&self, us: f64) -> f64 {
+        let (zero, full) = self.esc_range_us;
+        ((us - zero) / (full - zero)).clamp(0.0, 1.0)
     }
 
     /// Electrical power one rotor draws from a supply at `volts`, W: rotor power plus its lead
@@ -295,6 +333,11 @@ impl Robot {
             r.propulsion.max_thrust_g_at_12v6 *= u(0.97, 1.05);
             r.propulsion.lead_resistance_ohm *= u(0.5, 2.0);
             r.control_noise.0 = u(0.02, 0.06);
+            // Its own stream, so the draws above stay as they were before the ESC was drawn.
+            let mut esc = ChaCha8Rng::seed_from_u64(seed ^ 0x0065_7363);
+            let zero = 1000.0 + 80.0 * esc.random::<f64>();
+            let full = 2000.0 - 40.0 * esc.random::<f64>();
+            r.propulsion.esc_range_us = (zero, full);
         }
         r
     }
@@ -320,6 +363,84 @@ impl Robot {
         }
         (thrust, power)
     }
+
+    /// The two sweeps a characterisation session runs on one rotor, with the ESC command of
+    /// each step: the nominal sweep of [`Self::rig_sweep`] (the same thrust and power, step
+    /// for step) at 12.5 V with the command that held each thrust, and a limit sweep at 9.0 V
+    /// in command steps of 50 µs from 1050 µs to the top of the rig's 1000–2000 µs range.
+    /// Thrust and power carry the bench's noise, the command is a whole µs; the ESC is fed
+    /// through the rotor's lead. Noise from its own stream, so [`Self::rig_sweep`]'s draws are
+    /// untouched.
+    pub fn rig_sweeps(&self, step_g: f64, seed: u64) -> RigSweeps {
+        let prop = &self.propulsion;
+        let rho = RIG_AIR_DENSITY_KG_M3;
+        let esc_v = |volts: f64, power_w: f64| volts - power_w / volts * prop.lead_resistance_ohm;
+        let (thrust, power) = self.rig_sweep(step_g, seed);
+        let nominal = thrust
+            .iter()
+            .zip(&power)
+            .map(|(&t, &p)| {
+                let clean = prop.electrical_power_w(t, rho, RIG_VOLTAGE_V);
+                let duty = prop.drive_for_thrust_v(t, rho, 1.0) / esc_v(RIG_VOLTAGE_V, clean);
+                RigStep {
+                    throttle_us: prop.command_us(duty).round(),
+                    thrust_g: t,
+                    voltage_v: RIG_VOLTAGE_V,
+                    power_w: p,
+                }
+            })
+            .collect();
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6c69_6d69);
+        let volts = 9.0;
+        let mut limit = Vec::new();
+        let mut us = 1050.0;
+        while us <= 2000.0 {
+            let duty = prop.duty_of_us(us);
+            // The ESC's supply sags by the lead's drop, which depends on the power drawn:
+            // a few fixed-point passes settle it.
+            let mut t = prop.thrust_at_drive_g(duty * volts, rho, 1.0);
+            for _ in 0..8 {
+                let p = prop.electrical_power_w(t, rho, volts);
+                t = prop.thrust_at_drive_g(duty * esc_v(volts, p), rho, 1.0);
+            }
+            let p = if t > 0.0 {
+                prop.electrical_power_w(t, rho, volts)
+            } else {
+                0.0
+            };
+            limit.push(RigStep {
+                throttle_us: us,
+                thrust_g: t + 0.15 * crate::normal(&mut rng),
+                voltage_v: volts,
+                power_w: p * (1.0 + 0.003 * crate::normal(&mut rng))
+                    + 0.03 * crate::normal(&mut rng),
+            });
+            us += 50.0;
+        }
+        RigSweeps { nominal, limit }
+    }
+}
+
+/// One step of a rig sweep with its ESC command.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RigStep {
+    /// The ESC command, µs.
+    pub throttle_us: f64,
+    /// Thrust, g.
+    pub thrust_g: f64,
+    /// The supply's voltage, V.
+    pub voltage_v: f64,
+    /// Electrical power from the supply, W.
+    pub power_w: f64,
+}
+
+/// A characterisation session's two sweeps of one rotor ([`Robot::rig_sweeps`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct RigSweeps {
+    /// Thrust targets at the nominal 12.5 V.
+    pub nominal: Vec<RigStep>,
+    /// ESC commands at the minimum battery voltage, 9.0 V.
+    pub limit: Vec<RigStep>,
 }
 
 #[cfg(test)]

@@ -8,7 +8,7 @@ use serde::Serialize;
 
 use crate::mission::{FlightPlan, HALL_CEILING_M, Leg, LoggedPhase};
 use crate::ocv::{OcvCurve, OcvScatter};
-use crate::robot::{GRAVITY_M_S2, RIG_AIR_DENSITY_KG_M3, Robot};
+use crate::robot::{GRAVITY_M_S2, Propulsion, RIG_AIR_DENSITY_KG_M3, Robot};
 use crate::world::{Chemistry, EffectKind, Family, Withheld};
 use crate::{PackSpec, normal};
 
@@ -36,7 +36,8 @@ const THRUST_LIMIT_TAU_S: f64 = 2.0;
 pub struct SimFlight {
     /// Name (file stem).
     pub name: String,
-    /// `NAME.csv` in the flight-log format (`time_s,voltage_v[,current_a],phase,altitude_m`).
+    /// `NAME.csv` in the flight-log format (`time_s,voltage_v[,current_a],phase,altitude_m`,
+    /// then `motor1_us,…` when the logging profile logs the motors' ESC commands).
     pub csv: String,
     /// `NAME.toml`, the metadata sidecar.
     pub toml: String,
@@ -202,6 +203,84 @@ pub fn pack_truth(family: &Family, plan: &FlightPlan, seed: u64) -> PackTruth {
             (p.rc[1].0 * p.cells, p.rc[1].1),
         ],
         ocv: p.ocv,
+    }
+}
+
+/// The motors of one flight as their ESC commands tell them: how each rotor's share of the
+/// thrust and its propeller differ from the rig's, and how warm the windings run. Drawn from
+/// the flight's own stream, so nothing else of the flight moves with them.
+struct Motors {
+    rng: ChaCha8Rng,
+    /// Each rotor's share of the total thrust over the mean (the centre of mass is never
+    /// exactly central): mean 1.
+    trim: Vec<f64>,
+    /// Each propeller's thrust at equal speed over the rig's propeller (same model, another
+    /// piece).
+    prop_factor: Vec<f64>,
+    /// The windings' resistance in flight over the rig's (they run warmer in the air than
+    /// through a sweep).
+    drop_factor: f64,
+    /// Each rotor's drive this step: duty (0 with the motors stopped).
+    duty: Vec<f64>,
+}
+
+impl Motors {
+    fn draw(rotors: usize, seed: u64) -> Self {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x6d6f_7472);
+        let mut trim: Vec<f64> = (0..rotors)
+            .map(|_| 1.0 + 0.03 * normal(&mut rng).clamp(-2.5, 2.5))
+            .collect();
+        let mean = trim.iter().sum::<f64>() / rotors.max(1) as f64;
+        for t in &mut trim {
+            *t /= mean;
+        }
+        let prop_factor = (0..rotors)
+            .map(|_| 1.0 + 0.02 * normal(&mut rng).clamp(-2.5, 2.5))
+            .collect();
+        let drop_factor = 1.0 + 0.12 * rng.random::<f64>();
+        Self {
+            rng,
+            trim,
+            prop_factor,
+            drop_factor,
+            duty: vec![0.0; rotors],
+        }
+    }
+
+    /// Each rotor's duty to carry its share of a mean `speed_thrust_g` per rotor (the thrust a
+    /// static rotor at the same speed would give) from an ESC supply of `esc_v`.
+    fn set_drives(
+        &mut self,
+        prop: &Propulsion,
+        speed_thrust_g: f64,
+        rho: f64,
+        drop: f64,
+        esc_v: f64,
+    ) {
+        for (k, d) in self.duty.iter_mut().enumerate() {
+            let t = speed_thrust_g * self.trim[k] / self.prop_factor[k];
+            *d = (prop.drive_for_thrust_v(t, rho, drop) / esc_v.max(1.0)).min(1.0);
+        }
+    }
+
+    fn stop(&mut self) {
+        self.duty.fill(0.0);
+    }
+
+    /// Appends each motor's command, µs, as a flight controller logs it: the attitude loop's
+    /// rotor-to-rotor corrections on top (2 % of the drive, white at the log's rate); a stopped
+    /// motor at the bottom of the output range, 1000 µs.
+    fn log(&mut self, prop: &Propulsion, csv: &mut String) {
+        for k in 0..self.duty.len() {
+            let d = self.duty[k];
+            let us = if d > 0.0 {
+                let d = (d * (1.0 + 0.02 * normal(&mut self.rng))).clamp(0.0, 1.0);
+                prop.command_us(d).round()
+            } else {
+                1000.0
+            };
+            let _ = write!(csv, ",{us:.0}");
+        }
     }
 }
 
@@ -372,8 +451,16 @@ pub(crate) fn run(
     if sensor.current {
         csv.push_str(",current_a");
     }
-    csv.push_str(",phase,altitude_m\n");
+    csv.push_str(",phase,altitude_m");
+    let rotors = usize::from(robot.rotor_count);
+    if sensor.motors {
+        for k in 1..=rotors {
+            let _ = write!(csv, ",motor{k}_us");
+        }
+    }
+    csv.push('\n');
     let mut samples = 0usize;
+    let mut motors = Motors::draw(rotors, seed);
 
     let (mut t, mut z, mut soc) = (0.0_f64, 0.0_f64, start_soc);
     let mut v_rc = [0.0_f64; 2];
@@ -453,6 +540,18 @@ pub(crate) fn run(
                     let half = vz / 2.0;
                     rotor_w += climb_gain * tn * (half + (half * half + vh * vh).sqrt() - vh);
                 }
+                if sensor.motors {
+                    // The rotors turn as fast as a static rotor drawing the same power would
+                    // (P ∝ T^1.5 at equal speed-law), a warm winding drops more.
+                    let speed_thrust_g =
+                        aero_thrust_g * (rotor_w / n_rot / per_rotor).powf(2.0 / 3.0);
+                    let drop = motors.drop_factor * (1.0 + COPPER_PER_K * motor_dk);
+                    let esc_v =
+                        last_v - rotor_w / n_rot / last_v.max(1.0) * prop.lead_resistance_ohm;
+                    motors.set_drives(prop, speed_thrust_g, rho, drop, esc_v);
+                }
+            } else {
+                motors.stop();
             }
             // Lead losses at the pack's voltage.
             let lead_w = if flying {
@@ -536,7 +635,11 @@ pub(crate) fn run(
                         let _ = write!(csv, ",{:.2}", (im * 100.0).round() / 100.0);
                     }
                     let zm = z + sensor.alt_noise * normal(&mut noise_rng);
-                    let _ = writeln!(csv, ",{},{zm:.2}", phase.name());
+                    let _ = write!(csv, ",{},{zm:.2}", phase.name());
+                    if sensor.motors {
+                        motors.log(prop, &mut csv);
+                    }
+                    csv.push('\n');
                     samples += 1;
                 }
             }

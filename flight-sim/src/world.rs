@@ -127,13 +127,14 @@ pub enum Logging {
     /// A lab logger at 1 Hz: calibrated current and voltage, no dropped samples.
     Lab1Hz,
     /// A flight controller at 10 Hz: Hall current sensor with offset and scale errors, voltage
-    /// divider scale error, dropped samples, clock jitter.
+    /// divider scale error, dropped samples, clock jitter; the motor commands.
     Fc10Hz,
     /// A small flight controller at 5 Hz logging voltage only (no current sensor), with a
-    /// voltage offset, dropped samples and jitter.
+    /// voltage offset, dropped samples and jitter; its motor commands are logged, as a flight
+    /// controller's are.
     VoltageOnly5Hz,
     /// A blackbox at 50 Hz: noisy current and voltage with offset and scale errors, bursts of
-    /// dropped samples, jitter.
+    /// dropped samples, jitter; the motor commands.
     Blackbox50Hz,
 }
 
@@ -172,6 +173,7 @@ impl Logging {
                 jitter_frac: 0.0,
                 alt_noise: 0.01,
                 v_quantum: 0.001,
+                motors: false,
             },
             Logging::Fc10Hz => SensorSpec {
                 rate_hz: 10.0,
@@ -187,6 +189,7 @@ impl Logging {
                 jitter_frac: 0.1,
                 alt_noise: 0.05,
                 v_quantum: 0.01,
+                motors: true,
             },
             Logging::VoltageOnly5Hz => SensorSpec {
                 rate_hz: 5.0,
@@ -202,6 +205,7 @@ impl Logging {
                 jitter_frac: 0.15,
                 alt_noise: 0.03,
                 v_quantum: 0.01,
+                motors: true,
             },
             Logging::Blackbox50Hz => SensorSpec {
                 rate_hz: 50.0,
@@ -217,6 +221,7 @@ impl Logging {
                 jitter_frac: 0.2,
                 alt_noise: 0.08,
                 v_quantum: 0.01,
+                motors: true,
             },
         }
     }
@@ -241,6 +246,9 @@ pub(crate) struct SensorSpec {
     pub(crate) jitter_frac: f64,
     pub(crate) alt_noise: f64,
     pub(crate) v_quantum: f64,
+    /// Whether the log carries the motors' ESC commands (a flight controller's own log does;
+    /// a lab logger on the battery leads does not).
+    pub(crate) motors: bool,
 }
 
 /// Which robot flies.

@@ -91,11 +91,9 @@ fn voltage_only_logs_have_no_current_column() {
         &Withheld::NONE,
         2,
     );
-    assert!(
-        set.train[0]
-            .csv
-            .starts_with("time_s,voltage_v,phase,altitude_m\n")
-    );
+    assert!(set.train[0].csv.starts_with(
+        "time_s,voltage_v,phase,altitude_m,motor1_us,motor2_us,motor3_us,motor4_us\n"
+    ));
     assert!(set.train[0].toml.contains("cells = 4"));
     assert!(set.train[0].toml.contains("ceiling_height_m = 2.5\n"));
 }
@@ -282,4 +280,97 @@ fn capacity_fade_changes_the_capacity_not_the_impedance() {
     let told = pack_truth(&fam, &tp[0], 77);
     let cells = f64::from(told.cells);
     assert!((told.series_resistance_ohm - cells * faded.r0_cell_ohm_25c).abs() < 1e-15);
+}
+
+/// The motor commands a flight controller logs follow the thrust the rotors carry: stopped on
+/// the ground, inside the ESC's range in the air, higher with an airframe download (control
+/// overhead), and driving the motors at about the voltage (duty times supply) at which the rig's
+/// sweep held the same thrust.
+#[test]
+fn motor_commands_follow_the_rotors_thrust() {
+    use flight_sim::{Robot, plans, simulate};
+    let fam = family(Chemistry::LiPo, Logging::Fc10Hz);
+    let robot = Robot::of(fam.robot, 7);
+    let prop = robot.propulsion;
+    let plan = &plans(&fam, 7).0[0];
+    // Mean over hover samples of the command and of the drive voltage (duty × logged voltage).
+    let hover = |effect: &Withheld| {
+        let f = simulate(&fam, &robot, plan, effect, 7);
+        let mut lines = f.csv.lines();
+        let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
+        let col = |n: &str| header.iter().position(|h| *h == n).expect(n);
+        let (phase, volts, first) = (col("phase"), col("voltage_v"), col("motor1_us"));
+        assert_eq!(header.len() - first, usize::from(robot.rotor_count));
+        let (mut us_sum, mut drive_sum, mut n, mut ground) = (0.0, 0.0, 0.0, Vec::new());
+        for l in lines {
+            let c: Vec<&str> = l.split(',').collect();
+            let us: Vec<f64> = c[first..].iter().map(|v| v.parse().expect("µs")).collect();
+            let v: f64 = c[volts].parse().expect("V");
+            match c[phase] {
+                "hover" => {
+                    us_sum += us.iter().sum::<f64>() / us.len() as f64;
+                    drive_sum +=
+                        us.iter().map(|u| prop.duty_of_us(*u) * v).sum::<f64>() / us.len() as f64;
+                    n += 1.0;
+                }
+                "ground" => ground.extend(us),
+                _ => {}
+            }
+        }
+        assert!(n > 100.0 && ground.iter().all(|u| *u == 1000.0));
+        let mass_kg: f64 = f
+            .toml
+            .lines()
+            .filter(|l| {
+                ["structure_mass_kg", "battery_mass_kg", "payload_mass_kg"]
+                    .iter()
+                    .any(|k| l.starts_with(k))
+            })
+            .filter_map(|l| l.split('=').nth(1)?.trim().parse::<f64>().ok())
+            .sum();
+        (us_sum / n, drive_sum / n, mass_kg)
+    };
+    let (nominal_us, nominal_drive_v, mass_kg) = hover(&Withheld::NONE);
+    let (zero, full) = prop.esc_range_us;
+    assert!(
+        nominal_us > zero + 0.3 * (full - zero) && nominal_us < full,
+        "{nominal_us}"
+    );
+    let (payload_us, ..) = hover(&Withheld {
+        kind: EffectKind::ControlOverhead,
+        magnitude: 0.1,
+    });
+    assert!(
+        payload_us > nominal_us + 10.0,
+        "{payload_us} vs {nominal_us}"
+    );
+    // The rig's nominal sweep: the drive at the step nearest a hovering rotor's thrust.
+    let sweeps = robot.rig_sweeps(10.0, 7);
+    assert!(sweeps.limit.len() > 15 && sweeps.nominal.len() > 20);
+    let hover_g = 1000.0 * mass_kg / f64::from(robot.rotor_count);
+    let at = sweeps
+        .nominal
+        .iter()
+        .min_by(|a, b| {
+            (a.thrust_g - hover_g)
+                .abs()
+                .total_cmp(&(b.thrust_g - hover_g).abs())
+        })
+        .expect("steps");
+    assert!((at.thrust_g - hover_g).abs() <= 5.0);
+    let rig_drive_v = prop.duty_of_us(at.throttle_us) * at.voltage_v;
+    // Trims, propellers, warm windings, the air and a 5 g step apart: within 6 %.
+    assert!(
+        (nominal_drive_v / rig_drive_v - 1.0).abs() < 0.06,
+        "flight {nominal_drive_v} V, rig {rig_drive_v} V"
+    );
+    // The limit sweep's thrust climbs with the command and tops out near the highest thrust
+    // at 9 V.
+    let last = sweeps.limit.last().expect("steps");
+    let top = prop.max_thrust_g(9.0, flight_sim::robot::RIG_AIR_DENSITY_KG_M3);
+    assert!(
+        (last.thrust_g / top - 1.0).abs() < 0.05,
+        "{} vs {top}",
+        last.thrust_g
+    );
 }
