@@ -64,7 +64,7 @@ use estimator::{MissionOptions, Params, Segment};
 
 /// 64-bit words of [`HbOnlineState`]: room for the estimator ([`OnlineEstimator::STATE_SIZE_BYTES`]
 /// bytes on this target) and a tag.
-pub const STATE_WORDS: usize = 184;
+pub const STATE_WORDS: usize = 192;
 /// Tag of an initialised state.
 const TAG: u64 = 0x4842_4f4e_4c49_4e45; // "HBONLINE"
 
@@ -377,6 +377,7 @@ pub unsafe extern "C" fn hb_online_update(
         voltage_v,
         current_a: (!current_a_or_nan.is_nan()).then_some(current_a_or_nan),
         phase: FlightPhase::from_code(phase),
+        motor_power_w: None,
     });
     // Flags use the low bits only.
     (e.flags & 0x7fff_ffff) as i32

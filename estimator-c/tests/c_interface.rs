@@ -76,6 +76,7 @@ fn samples() -> Vec<Sample> {
             } else {
                 FlightPhase::Ground
             }),
+            motor_power_w: None,
         });
         soc -= i * 0.2 / (3600.0 * 1.9);
         t += 0.2;

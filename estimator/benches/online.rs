@@ -40,6 +40,7 @@ fn samples(current: bool) -> Vec<Sample> {
                 voltage_v: 12.4 - 1.3 * t / 600.0 + 0.01 * (t * 7.0).sin(),
                 current_a: current.then_some(9.0 + 0.3 * (t * 3.0).sin()),
                 phase: Some(FlightPhase::Hover),
+                motor_power_w: None,
             }
         })
         .collect()

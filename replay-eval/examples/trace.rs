@@ -81,6 +81,7 @@ fn main() {
                 voltage_v: s.voltage_v[k],
                 current_a: s.current_a.as_ref().map(|c| c[k]),
                 phase: s.phase.as_ref().map(|p| p[k]),
+                motor_power_w: None,
             };
             let r = pred.update(&sample);
             let frac = (t - span.takeoff_s) / span.duration_s();

@@ -258,6 +258,7 @@ fn sample_at(flight: &Flight, k: usize) -> Sample {
         voltage_v: s.voltage_v[k],
         current_a: s.current_a.as_ref().map(|c| c[k]),
         phase: s.phase.as_ref().map(|p| p[k]),
+        motor_power_w: None,
     }
 }
 

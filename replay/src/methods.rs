@@ -19,6 +19,9 @@ pub struct Sample {
     pub current_a: Option<f64>,
     /// Flight phase, when logged or inferred.
     pub phase: Option<Phase>,
+    /// The rotors' electrical power from the logged motor commands through the parameters'
+    /// motor map, W, when both are there.
+    pub motor_power_w: Option<f64>,
 }
 
 /// What an estimator says after a sample.
@@ -605,6 +608,7 @@ mod tests {
             voltage_v: v,
             current_a: Some(i),
             phase: Some(Phase::Hover),
+            motor_power_w: None,
         }
     }
 
@@ -645,6 +649,7 @@ mod tests {
             voltage_v: 12.0,
             current_a: None,
             phase: None,
+            motor_power_w: None,
         };
         assert!(CoulombCounter::new(1.0).update(&s).is_none());
         assert!(

@@ -283,6 +283,7 @@ impl Predictor for Online {
             voltage_v: s.voltage_v,
             current_a: s.current_a,
             phase: s.phase.map(phase_of),
+            motor_power_w: s.motor_power_w,
         });
         if !e.is_valid() {
             return None;

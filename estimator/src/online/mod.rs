@@ -161,6 +161,11 @@ pub struct Sample {
     pub current_a: Option<f64>,
     /// Phase, when known; without it the last known phase holds (hover at the start).
     pub phase: Option<FlightPhase>,
+    /// The rotors' electrical power read from their ESC commands through the rig's motor map
+    /// (`MotorMap::total_power_w`, all rotors together), W, when the log has the commands.
+    /// Used only when there is no current: in hover it measures the power drawn as the
+    /// current's product with the voltage would, with [`OnlineConfig::motor_power_sigma_fraction`].
+    pub motor_power_w: Option<f64>,
 }
 
 /// Noise levels and tuning of the filter. The defaults suit hobby packs logged at 1–100 Hz.
@@ -178,6 +183,10 @@ pub struct OnlineConfig {
     /// Standard deviation of one sample's power draw around its mean, as a fraction of the
     /// hover power (gusts, manoeuvres): the noise of the power update with a logged current.
     pub power_sigma_fraction: f64,
+    /// Standard deviation of one sample's rotor power read from the motor commands, as a
+    /// fraction of the hover power: the noise of the power update without a current
+    /// ([`Sample::motor_power_w`]).
+    pub motor_power_sigma_fraction: f64,
     /// Least initial standard deviation of the state of charge read from the first voltage.
     pub initial_soc_sigma: f64,
     /// Initial standard deviation of the resistance scale.
@@ -382,6 +391,7 @@ impl Default for OnlineConfig {
             voltage_sigma_v: 0.05,
             current_sigma_a: 0.2,
             power_sigma_fraction: 0.05,
+            motor_power_sigma_fraction: 0.05,
             initial_soc_sigma: 0.03,
             resistance_scale_sigma: 0.4,
             capacity_scale_sigma: 0.05,
@@ -456,6 +466,10 @@ impl OnlineConfig {
             ("voltage sigma (V)", self.voltage_sigma_v),
             ("current sigma (A)", self.current_sigma_a),
             ("power sigma fraction", self.power_sigma_fraction),
+            (
+                "motor power sigma fraction",
+                self.motor_power_sigma_fraction,
+            ),
             ("initial state-of-charge sigma", self.initial_soc_sigma),
             ("resistance scale sigma", self.resistance_scale_sigma),
             ("capacity scale sigma", self.capacity_scale_sigma),
@@ -695,6 +709,8 @@ struct InputWindow {
     voltage_v: f64,
     /// Sum of their currents, A; NaN once one had none.
     current_a: f64,
+    /// Sum of their rotor powers from the motor commands, W; NaN once one had none.
+    motor_power_w: f64,
     /// The phase its samples gave.
     phase: Option<FlightPhase>,
 }
@@ -705,6 +721,7 @@ impl InputWindow {
         n: 0,
         voltage_v: 0.0,
         current_a: 0.0,
+        motor_power_w: 0.0,
         phase: None,
     };
 }
@@ -976,6 +993,7 @@ impl OnlineEstimator {
         if self.config.zero_current {
             logged = self.zero_current(sample, logged);
         }
+        let mut motor_w = sample.motor_power_w.filter(|p| p.is_finite() && *p >= 0.0);
         let mut sample = *sample;
         let interval_s = sample.time_s - self.seen_time_s;
         self.seen_time_s = sample.time_s;
@@ -991,6 +1009,7 @@ impl OnlineEstimator {
             w.n += 1;
             w.voltage_v += sample.voltage_v;
             w.current_a += logged.unwrap_or(f64::NAN);
+            w.motor_power_w += motor_w.unwrap_or(f64::NAN);
             if sample.time_s - w.start_s + interval_s < self.config.input_average_s - 1e-9 {
                 return self.estimate();
             }
@@ -999,6 +1018,7 @@ impl OnlineEstimator {
             if w.current_a.is_finite() {
                 logged = Some(w.current_a / n);
             }
+            motor_w = w.motor_power_w.is_finite().then(|| w.motor_power_w / n);
             *w = InputWindow::EMPTY;
         }
         if !self.initialised {
@@ -1015,8 +1035,15 @@ impl OnlineEstimator {
                 self.counted_s += dt;
             }
             self.voltage_update(sample.voltage_v, logged);
-            if let Some(i) = logged {
-                self.power_update(sample.voltage_v * i);
+            match (logged, motor_w) {
+                (Some(i), _) => {
+                    self.power_update(sample.voltage_v * i, self.config.power_sigma_fraction);
+                }
+                (None, Some(w)) => self.power_update(
+                    w + self.idle_power_w,
+                    self.config.motor_power_sigma_fraction,
+                ),
+                (None, None) => {}
             }
         }
         self.last_time_s = sample.time_s;
@@ -1282,7 +1309,9 @@ impl OnlineEstimator {
         self.scalar_update(&h, y, r);
     }
 
-    fn power_update(&mut self, measured_w: f64) {
+    /// A measurement of the power drawn, W, with one sample's standard deviation
+    /// `sigma_fraction` of the hover power.
+    fn power_update(&mut self, measured_w: f64, sigma_fraction: f64) {
         if !self.phase.is_flying() || !measured_w.is_finite() {
             return;
         }
@@ -1293,7 +1322,7 @@ impl OnlineEstimator {
         let mut h = SMatrix::<f64, 1, STATES>::zeros();
         h[PEXTRA] = 1.0;
         let y = measured_w - self.power_w(self.phase, &self.x);
-        let sd = self.config.power_sigma_fraction * self.hover_power_w;
+        let sd = sigma_fraction * self.hover_power_w;
         let s = self.p[(PEXTRA, PEXTRA)] + sd * sd;
         if y * y > self.config.outlier_gate_sigma * self.config.outlier_gate_sigma * s {
             return;
