@@ -23,7 +23,10 @@
 //! `extra_power_w` in hover). When it is not, the current is the one that delivers the model's
 //! power from the pack, `P = p_M(m_T) + p_I + extra_power_w` (eqs. 1, 2 and 4's denominator; the
 //! smaller root of `R·I² − E·I + P = 0`), so the filter learns `extra_power_w` and the capacity
-//! from how fast the voltage falls. The RC pair relaxes with its time constant towards
+//! from how fast the voltage falls; when the log has the motors' ESC commands instead, the
+//! rotors' power read from them through the rig's motor map ([`Sample::motor_power_w`]) measures
+//! the power drawn in hover as the current's product with the voltage would (with its own
+//! noise, [`OnlineConfig::motor_power_sigma_fraction`]). The RC pair relaxes with its time constant towards
 //! `I·n·R₁`. Capacity, resistance and extra power are random walks.
 //!
 //! # The prediction
@@ -57,7 +60,13 @@
 //!     ..OnlineConfig::default()
 //! };
 //! let mut est = OnlineEstimator::new(&params, &battery, &config)?;
-//! let e = est.update(&Sample { time_s: 0.0, voltage_v: 12.3, current_a: None, phase: Some(FlightPhase::Hover) });
+//! let e = est.update(&Sample {
+//!     time_s: 0.0,
+//!     voltage_v: 12.3,
+//!     current_a: None,
+//!     phase: Some(FlightPhase::Hover),
+//!     motor_power_w: None,
+//! });
 //! assert!(e.remaining_phase_s > 0.0 && e.soc > 0.5);
 //! # Ok::<(), estimator::EstimateError>(())
 //! ```
