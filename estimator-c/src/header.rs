@@ -147,6 +147,13 @@ int32_t hb_online_init_with(const uint8_t *blob, size_t len, double input_averag
 int32_t hb_online_update(hb_online_state *state, double time_s, double voltage_v,
                          double current_a_or_nan, uint8_t phase);
 
+/* hb_online_update with the rotors' electrical power (W, all rotors; NAN when not known) read
+ * from the motors' ESC commands through the rig's motor map: used in hover when the current is
+ * NAN, as the current's power would be. */
+int32_t hb_online_update_motors(hb_online_state *state, double time_s, double voltage_v,
+                                double current_a_or_nan, uint8_t phase,
+                                double motor_power_w_or_nan);
+
 /* Writes the estimate after the last sample. */
 int32_t hb_online_read(const hb_online_state *state, hb_online_estimate *out);
 

@@ -365,6 +365,24 @@ pub unsafe extern "C" fn hb_online_update(
     current_a_or_nan: f64,
     phase: u8,
 ) -> i32 {
+    // SAFETY: the caller's contract is this function's.
+    unsafe { hb_online_update_motors(state, time_s, voltage_v, current_a_or_nan, phase, f64::NAN) }
+}
+
+/// [`hb_online_update`] with the rotors' electrical power read from the motors' ESC commands
+/// through the rig's motor map (W, all rotors together; NaN when not known): used in hover
+/// when the current is NaN, as the current's power would be.
+/// # Safety
+/// `state` points to an `HbOnlineState` (or is null, which is `HB_ERR_NULL`).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn hb_online_update_motors(
+    state: *mut HbOnlineState,
+    time_s: f64,
+    voltage_v: f64,
+    current_a_or_nan: f64,
+    phase: u8,
+    motor_power_w_or_nan: f64,
+) -> i32 {
     if state.is_null() {
         return HB_ERR_NULL;
     }
@@ -372,12 +390,13 @@ pub unsafe extern "C" fn hb_online_update(
     let Some(est) = (unsafe { &mut *state }).estimator_mut() else {
         return HB_ERR_NOT_INITIALISED;
     };
+    let known = |x: f64| (!x.is_nan()).then_some(x);
     let e = est.update(&Sample {
         time_s,
         voltage_v,
-        current_a: (!current_a_or_nan.is_nan()).then_some(current_a_or_nan),
+        current_a: known(current_a_or_nan),
         phase: FlightPhase::from_code(phase),
-        motor_power_w: None,
+        motor_power_w: known(motor_power_w_or_nan),
     });
     // Flags use the low bits only.
     (e.flags & 0x7fff_ffff) as i32

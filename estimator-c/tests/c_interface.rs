@@ -48,7 +48,8 @@ fn params() -> Params {
 }
 
 /// A discharge at 108 W from a pack a little smaller than the file's, 5 Hz, current logged on
-/// the first half only, a few garbage samples.
+/// the first half only, the rotors' power from the motor commands (2 % high) in flight on the
+/// second, a few garbage samples.
 fn samples() -> Vec<Sample> {
     let mut out = Vec::new();
     let (mut soc, mut t) = (1.0f64, 0.0);
@@ -76,7 +77,7 @@ fn samples() -> Vec<Sample> {
             } else {
                 FlightPhase::Ground
             }),
-            motor_power_w: None,
+            motor_power_w: (flying && t >= 300.0).then_some((p - 2.44) * 1.02),
         });
         soc -= i * 0.2 / (3600.0 * 1.9);
         t += 0.2;
@@ -168,12 +169,14 @@ fn agrees(opt_ins: bool) {
         .iter()
         .map(|s| {
             format!(
-                "{:.17e} {:.17e} {} {}\n",
+                "{:.17e} {:.17e} {} {} {}\n",
                 s.time_s,
                 s.voltage_v,
                 s.current_a
                     .map_or("nan".to_owned(), |i| format!("{i:.17e}")),
-                s.phase.map_or(0, |p| p as u8)
+                s.phase.map_or(0, |p| p as u8),
+                s.motor_power_w
+                    .map_or("nan".to_owned(), |w| format!("{w:.17e}")),
             )
         })
         .collect();

@@ -1,6 +1,6 @@
 /* Drives libhoverbench_online.a from C: init from a blob file (with a third argument "opt-ins":
  * hb_online_init_with, 1 s windows and the thrust-limit end), a plan, then every sample of a
- * text file ("time_s voltage_v current_a|nan phase" per line), with a capacity reading of 0.9
+ * text file ("time_s voltage_v current_a|nan phase motor_power_w|nan" per line), with a capacity reading of 0.9
  * (one-sigma 0.04) fused after the first; prints the estimate every 50 samples for the Rust
  * test to compare. */
 #include <math.h>
@@ -16,7 +16,7 @@ int main(int argc, char **argv) {
     FILE *f;
     size_t len;
     long n = 0;
-    double t, v, i;
+    double t, v, i, w;
     int phase, rc, observed = 0;
     hb_plan_segment plan[2];
 
@@ -28,6 +28,8 @@ int main(int argc, char **argv) {
     memset(&state, 0, sizeof state);
     if (hb_online_read(&state, &e) != HB_ERR_NOT_INITIALISED) return 3;
     if (hb_online_update(NULL, 0.0, 12.0, NAN, HB_PHASE_HOVER) != HB_ERR_NULL) return 3;
+    if (hb_online_update_motors(NULL, 0.0, 12.0, NAN, HB_PHASE_HOVER, 50.0) != HB_ERR_NULL)
+        return 3;
     if (hb_online_init(blob, 3, &state) != HB_ERR_BLOB) return 3;
     if (hb_online_observe(&state, HB_STATE_CAPACITY_SCALE, 0.9, 0.04) != HB_ERR_NOT_INITIALISED)
         return 3;
@@ -58,8 +60,10 @@ int main(int argc, char **argv) {
 
     f = fopen(argv[2], "r");
     if (!f) return 4;
-    while (fscanf(f, "%lf %lf %lf %d", &t, &v, &i, &phase) == 4) {
-        rc = hb_online_update(&state, t, v, i, (uint8_t)phase);
+    while (fscanf(f, "%lf %lf %lf %d %lf", &t, &v, &i, &phase, &w) == 5) {
+        /* The rotors' power from the motor commands, where the log has no current. */
+        rc = isnan(w) ? hb_online_update(&state, t, v, i, (uint8_t)phase)
+                      : hb_online_update_motors(&state, t, v, i, (uint8_t)phase, w);
         if (rc < 0) {
             printf("update %d\n", (int)rc);
             return 1;
