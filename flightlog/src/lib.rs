@@ -5,7 +5,8 @@
 //!
 //! - `NAME.csv` with a header: `time_s` and `voltage_v` required; `current_a`, `phase`
 //!   (`ground`, `hover`, `climb`, `descend`, `attached`, `transition`), `altitude_m`, `throttle`
-//!   optional; any rate of at least 1 Hz ([`csvlog`]);
+//!   and the motor commands `motor1_us`, `motor2_us`, … optional; any rate of at least 1 Hz
+//!   ([`csvlog`]);
 //! - the Crazyflie dataset's CSV (`x_estimate,y_estimate,z_estimate,battery_voltage` at 100 Hz),
 //!   alone or as the dataset's folder with `Real_path/` and `Planned_trajectories/`, with
 //!   documented platform defaults ([`crazyflie`]);
@@ -18,7 +19,11 @@
 //! A binary log's batteries (every ULog `battery_status` instance; DataFlash `BAT`, `BAT2`,
 //! ArduCopter 3.x `CURR` and `BCL`) go through one check ([`battery`]): a battery that is not
 //! connected, or whose voltage is implausible for its cell count, is skipped with that reason
-//! ([`SkipReason`], [`FlightLogError::NoUsableBattery`]). What the log says about itself —
+//! ([`SkipReason`], [`FlightLogError::NoUsableBattery`]). The motor commands (ESC outputs,
+//! PWM µs: ULog `actuator_outputs`, DataFlash `RCOU`, MAVLink `SERVO_OUTPUT_RAW`) are read for
+//! the vehicle's motors only, as many as its parameters or type say, and only when they are PWM
+//! pulses ([`motors`], [`Samples::motor_us`]); the Crazyflie dataset has none. What the log says
+//! about itself —
 //! firmware, vehicle type, metadata from its own parameters — is its [`LogInfo`].
 //!
 //! Metadata ([`FlightMeta`]) is layered, each value with its source ([`Flight::metadata`],
