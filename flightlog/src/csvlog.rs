@@ -3,7 +3,9 @@
 //! Required columns: `time_s` (s, strictly increasing, median interval at most 1 s, no hole
 //! longer than [`crate::MAX_GAP_S`]) and `voltage_v` (V, positive). Optional: `current_a` (A),
 //! `phase` (`ground`, `hover`, `climb`, `descend`, `attached`, `transition`), `altitude_m` (m),
-//! `throttle`. Other columns are ignored and listed in the flight's warnings. A UTF-8
+//! `throttle`, and the motor commands `motor1_us`, `motor2_us`, … (PWM µs, one column per motor,
+//! consecutive from 1, at most [`crate::motors::MAX_MOTORS`]; a set with a hole or past 16 is
+//! an error naming the header's line and the column). Other columns are ignored and listed in the flight's warnings. A UTF-8
 //! byte-order mark, `#` comment lines, blank lines and spaces around cells are accepted; every
 //! cell of a present column must hold a finite number (or a phase name).
 //!
@@ -132,6 +134,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
             _ => true,
         },
     );
+    let motor_columns = motor_columns(&names, &mut ignored, path, header_line)?;
     let ignored: Vec<String> = ignored.iter().map(|&i| names[i].clone()).collect();
     let require = |k: usize| {
         index[k].ok_or_else(|| FlightLogError::MissingColumn {
@@ -161,6 +164,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
         phase: i_phase.map(|_| Vec::new()),
         altitude_m: i_alt.map(|_| Vec::new()),
         throttle: i_thr.map(|_| Vec::new()),
+        motor_us: (!motor_columns.is_empty()).then(|| vec![Vec::new(); motor_columns.len()]),
         ..Samples::default()
     };
     let mut lines = Vec::new();
@@ -204,6 +208,11 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
         }
         if let (Some(i), Some(col)) = (i_thr, samples.throttle.as_mut()) {
             col.push(number(i)?);
+        }
+        if let Some(cols) = samples.motor_us.as_mut() {
+            for (&i, col) in motor_columns.iter().zip(cols) {
+                col.push(number(i)?);
+            }
         }
         if let (Some(i), Some(col)) = (i_phase, samples.phase.as_mut()) {
             col.push(Phase::parse(cell(i)).ok_or_else(|| {
@@ -265,6 +274,70 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
         warnings,
         info,
     })
+}
+
+/// The motor of a motor-command column's name: `motor3_us` → 3 (any case); `None` for any
+/// other name.
+pub fn motor_number(name: &str) -> Option<usize> {
+    let lower = name.to_ascii_lowercase();
+    let digits = lower.strip_prefix("motor")?.strip_suffix("_us")?;
+    if digits.is_empty() || !digits.bytes().all(|b| b.is_ascii_digit()) || digits.starts_with('0') {
+        return None;
+    }
+    digits.parse().ok()
+}
+
+/// The header's motor-command columns (taken out of `ignored`), motor 1 first: they must be
+/// `motor1_us` … `motorN_us`, each once, N at most [`crate::motors::MAX_MOTORS`].
+fn motor_columns(
+    names: &[String],
+    ignored: &mut Vec<usize>,
+    path: &Path,
+    line: u64,
+) -> Result<Vec<usize>, FlightLogError> {
+    let mut found: Vec<(usize, usize)> = Vec::new();
+    ignored.retain(|&i| match motor_number(&names[i]) {
+        Some(m) => {
+            found.push((m, i));
+            false
+        }
+        None => true,
+    });
+    found.sort_unstable();
+    let fail = |i: usize, message: String| FlightLogError::MotorColumns {
+        path: path.to_owned(),
+        line,
+        column: names[i].clone(),
+        message,
+    };
+    let max = crate::motors::MAX_MOTORS;
+    for (k, &(m, i)) in found.iter().enumerate() {
+        if k > 0 && found[k - 1].0 == m {
+            return Err(FlightLogError::DuplicateColumn {
+                path: path.to_owned(),
+                line,
+                column: names[i].clone(),
+            });
+        }
+        if m > max {
+            return Err(fail(
+                i,
+                format!(
+                    "motor {m}: at most {max} motor-command columns (motor1_us … motor{max}_us) are read"
+                ),
+            ));
+        }
+        if m != k + 1 {
+            return Err(fail(
+                i,
+                format!(
+                    "motor-command columns must be consecutive from motor1_us; motor{}_us is missing",
+                    k + 1
+                ),
+            ));
+        }
+    }
+    Ok(found.into_iter().map(|(_, i)| i).collect())
 }
 
 /// The column of [`COLUMNS`] a header name of another tool stands for, and the scale from its
@@ -516,7 +589,87 @@ mod tests {
         );
     }
 
+    #[test]
+    fn motor_columns_are_consecutive_from_one() {
+        let d = parse_str(
+            "time_s,voltage_v,Motor2_us,motor1_us,note\n0,12,1100,1000,a\n1,12,1200.5,1300,b\n",
+        )
+        .unwrap();
+        // Motor 1 first, whatever the header's order.
+        assert_eq!(
+            d.samples.motor_us.unwrap(),
+            [vec![1000.0, 1300.0], vec![1100.0, 1200.5]]
+        );
+        assert_eq!(d.warnings, ["columns ignored: note"]);
+        assert!(
+            parse_str("time_s,voltage_v\n0,12\n1,12\n")
+                .unwrap()
+                .samples
+                .motor_us
+                .is_none()
+        );
+        // A hole, a start past 1, a duplicate, more than 16, a bad cell: errors with context.
+        let e = parse_str("time_s,voltage_v,motor1_us,motor3_us\n0,12,1,1\n").unwrap_err();
+        assert!(
+            matches!(&e, FlightLogError::MotorColumns { line: 1, column, .. } if column == "motor3_us"),
+            "{e}"
+        );
+        assert!(e.to_string().contains("motor2_us is missing"), "{e}");
+        let e = parse_str("time_s,voltage_v,motor2_us\n0,12,1\n").unwrap_err();
+        assert!(e.to_string().contains("motor1_us is missing"), "{e}");
+        let e = parse_str("time_s,voltage_v,motor1_us,MOTOR1_us\n0,12,1,1\n").unwrap_err();
+        assert!(matches!(e, FlightLogError::DuplicateColumn { .. }), "{e}");
+        let header: Vec<String> = (1..=17).map(|m| format!("motor{m}_us")).collect();
+        let row = vec!["1500"; 17].join(",");
+        let e = parse_str(&format!(
+            "time_s,voltage_v,{}\n0,12,{row}\n",
+            header.join(",")
+        ))
+        .unwrap_err();
+        assert!(
+            matches!(&e, FlightLogError::MotorColumns { column, .. } if column == "motor17_us"),
+            "{e}"
+        );
+        let header16 = header[..16].join(",");
+        let row16 = vec!["1500"; 16].join(",");
+        let d = parse_str(&format!(
+            "time_s,voltage_v,{header16}\n0,12,{row16}\n1,12,{row16}\n"
+        ))
+        .unwrap();
+        assert_eq!(d.samples.motor_us.unwrap().len(), 16);
+        let e = parse_str("time_s,voltage_v,motor1_us\n0,12,1000\n1,12,nan\n").unwrap_err();
+        assert!(
+            matches!(&e, FlightLogError::BadValue { line: 3, column, .. } if column == "motor1_us"),
+            "{e}"
+        );
+        // Names that are not motor commands stay other columns.
+        for name in [
+            "motor_us",
+            "motor01_us",
+            "motor1",
+            "motor1_ms",
+            "xmotor1_us",
+            "motor-1_us",
+        ] {
+            assert_eq!(motor_number(name), None, "{name}");
+        }
+    }
+
     proptest::proptest! {
+        #[test]
+        fn a_motor_column_name_gives_its_number_back(m in 1usize..100_000, upper: bool) {
+            let name = format!("motor{m}_us");
+            let name = if upper { name.to_uppercase() } else { name };
+            proptest::prop_assert_eq!(motor_number(&name), Some(m));
+        }
+
+        #[test]
+        fn any_name_is_a_motor_column_only_as_motor_n_us(name in "\\PC{0,16}") {
+            if let Some(m) = motor_number(&name) {
+                proptest::prop_assert_eq!(name.to_ascii_lowercase(), format!("motor{m}_us"));
+            }
+        }
+
         #[test]
         fn any_header_name_is_a_known_column_with_a_positive_scale_or_none(name in "\\PC{0,24}") {
             if let Some((column, scale)) = alias(&name) {

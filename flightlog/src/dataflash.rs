@@ -20,7 +20,11 @@
 //!
 //! A flight takes `BAT` (`TimeUS`, `Volt`, `Curr`; the lowest `Instance`), and for altitude
 //! `CTUN.Alt` (else ArduCopter 3.0–3.2's `CTUN.BarAlt`, else `BARO.Alt`, lowest instance) and throttle `CTUN.ThO` (0–1), both
-//! interpolated onto the battery's times. Time is `BAT.TimeUS` (or `TimeMS`) from its first
+//! interpolated onto the battery's times, as are the motor commands: `RCOU`'s `C1`…`C14`
+//! (ArduCopter 3.x: `Ch1`…), PWM µs, of the frame's motors (`FRAME_CLASS`, else the `Frame:`
+//! message of older firmware; their outputs from `SERVOn_FUNCTION` when logged), not read (a
+//! warning says why) for a frame not known or a command outside
+//! [`crate::motors::PWM_RANGE_US`] ([`crate::motors`]). Time is `BAT.TimeUS` (or `TimeMS`) from its first
 //! sample, s. A message without a time field (ArduCopter 3.0–3.1's `CURR` and `CTUN`) takes
 //! its times from the log's [`Clock`]: those of the most frequent message type that has them
 //! (`IMU.TimeMS`, `GPS.TimeMS`, 3.0's `GPS.Time`), interpolated by position in the log
@@ -1027,7 +1031,7 @@ fn battery_tracks(
 }
 
 /// What ArduPilot firmware names a `FRAME_CLASS`.
-fn frame_class_name(class: u32) -> Option<(&'static str, VehicleKind)> {
+pub(crate) fn frame_class_name(class: u32) -> Option<(&'static str, VehicleKind)> {
     Some(match class {
         1 => ("quad", VehicleKind::Multirotor),
         2 => ("hexa", VehicleKind::Multirotor),
@@ -1311,9 +1315,103 @@ fn decode(log: &DataFlash<'_>, path: &Path) -> Result<Decoded, FlightLogError> {
         }
         None => None,
     };
+    let motor_us = match motor_commands(log, path, &params, &info, clock.as_ref(), t0, &time_s) {
+        Ok(None) => None,
+        Ok(Some((columns, source))) => {
+            info.motors = Some(source);
+            Some(columns)
+        }
+        Err(why) => {
+            warnings.push(why);
+            None
+        }
+    };
     Ok(Decoded::battery_log(
-        chosen, altitude_m, throttle, warnings, info,
+        chosen, altitude_m, throttle, motor_us, warnings, info,
     ))
+}
+
+/// The labels of output `n` (1-based) in `RCOU`: `C1` in current firmware, `Ch1` (or `Chan1`)
+/// in ArduCopter 3.x.
+const RCOU_LABELS: [&str; 3] = ["C", "Ch", "Chan"];
+
+/// The motor commands of a DataFlash log, on the battery's times `time_s` (its first at `t0`
+/// on the log's clock), with where they were read: `RCOU`'s outputs of the frame's motors
+/// ([`crate::motors`]). `Ok(None)` without `RCOU`; `Err` is the warning that says why they were
+/// not read.
+#[allow(clippy::too_many_arguments)]
+fn motor_commands(
+    log: &DataFlash<'_>,
+    path: &Path,
+    params: &HashMap<String, f64>,
+    info: &LogInfo,
+    clock: Option<&Clock>,
+    t0: f64,
+    time_s: &[f64],
+) -> Result<Option<crate::motors::Read>, String> {
+    const NAME: &str = "RCOU";
+    let Some(format) = log.format(NAME).filter(|_| log.has(NAME)) else {
+        return Ok(None);
+    };
+    let not_read = |why: String| format!("{NAME} not read as motor commands: {why}");
+    let frame = info.meta.frame.as_deref().ok_or_else(|| {
+        not_read(
+            "the log names no multirotor frame (FRAME_CLASS, or ArduCopter's \"Frame:\" message)"
+                .to_owned(),
+        )
+    })?;
+    let origin = match params.get("FRAME_CLASS") {
+        Some(c) => format!("FRAME_CLASS {c} ({frame})"),
+        None => format!("frame {frame} from the log's \"Frame:\" message"),
+    };
+    let outputs = crate::motors::ardupilot_outputs(params, frame, &origin).map_err(not_read)?;
+    let prefix = RCOU_LABELS
+        .iter()
+        .find(|p| format.field(&format!("{p}1")).is_some())
+        .ok_or_else(|| {
+            not_read(format!(
+                "no output field C1 (labels: {})",
+                format.labels.join(",")
+            ))
+        })?;
+    let labels: Vec<String> = outputs
+        .channels
+        .iter()
+        .map(|c| format!("{prefix}{c}"))
+        .collect();
+    let own = log.time_field(NAME);
+    if own.is_none() && clock.is_none() {
+        return Err(not_read(
+            "its messages have no time field, and the log no clock to take one from".to_owned(),
+        ));
+    }
+    let mut fields: Vec<(&str, bool)> = labels.iter().map(|l| (l.as_str(), true)).collect();
+    if let Some((label, _)) = own {
+        fields.push((label, true));
+    }
+    let rows = log
+        .rows(NAME, None, &fields, path)
+        .map_err(|e| not_read(crate::summary::error_chain(&e)))?;
+    let k = labels.len();
+    let (mut t, mut values) = (
+        Vec::with_capacity(rows.len()),
+        Vec::with_capacity(rows.len()),
+    );
+    for r in &rows {
+        if let Some(time) = row_time(own, clock, r, k) {
+            t.push(time - t0);
+            values.push(r.values[..k].to_vec());
+        }
+    }
+    let name = |m: usize| format!("{NAME}.{}", labels[m]);
+    let columns = crate::motors::align(&t, &values, k, time_s, &name)?;
+    let source = format!(
+        "{NAME}.{}–{} ({})",
+        labels[0],
+        labels[k - 1],
+        outputs.origin
+    );
+    Ok(Some((columns, source)))
 }
 
 /// ArduPilot logs no cell count: estimated from the highest voltage.

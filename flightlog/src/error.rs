@@ -64,6 +64,19 @@ pub enum FlightLogError {
         /// What was expected.
         expected: String,
     },
+    /// Motor-command columns (`motor1_us`, `motor2_us`, …) that are not consecutive from 1, or
+    /// more than [`crate::motors::MAX_MOTORS`] of them.
+    #[error("{}, line {line}, column {column:?}: {message}", path.display())]
+    MotorColumns {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line of the header.
+        line: u64,
+        /// The column concerned.
+        column: String,
+        /// What is wrong.
+        message: String,
+    },
     /// Time that runs backwards, stands still, or is sampled slower than 1 Hz.
     #[error("{}, {location}, field {field:?}: {message}", path.display())]
     Time {
@@ -210,6 +223,7 @@ impl FlightLogError {
             | Self::MissingColumn { path, .. }
             | Self::DuplicateColumn { path, .. }
             | Self::BadValue { path, .. }
+            | Self::MotorColumns { path, .. }
             | Self::Time { path, .. }
             | Self::TooShort { path, .. }
             | Self::Toml { path, .. }

@@ -5,7 +5,8 @@
 //!
 //! - `NAME.csv` with a header: `time_s` and `voltage_v` required; `current_a`, `phase`
 //!   (`ground`, `hover`, `climb`, `descend`, `attached`, `transition`), `altitude_m`, `throttle`
-//!   optional; any rate of at least 1 Hz ([`csvlog`]);
+//!   and the motor commands `motor1_us`, `motor2_us`, … optional; any rate of at least 1 Hz
+//!   ([`csvlog`]);
 //! - the Crazyflie dataset's CSV (`x_estimate,y_estimate,z_estimate,battery_voltage` at 100 Hz),
 //!   alone or as the dataset's folder with `Real_path/` and `Planned_trajectories/`, with
 //!   documented platform defaults ([`crazyflie`]);
@@ -18,7 +19,11 @@
 //! A binary log's batteries (every ULog `battery_status` instance; DataFlash `BAT`, `BAT2`,
 //! ArduCopter 3.x `CURR` and `BCL`) go through one check ([`battery`]): a battery that is not
 //! connected, or whose voltage is implausible for its cell count, is skipped with that reason
-//! ([`SkipReason`], [`FlightLogError::NoUsableBattery`]). What the log says about itself —
+//! ([`SkipReason`], [`FlightLogError::NoUsableBattery`]). The motor commands (ESC outputs,
+//! PWM µs: ULog `actuator_outputs`, DataFlash `RCOU`, MAVLink `SERVO_OUTPUT_RAW`) are read for
+//! the vehicle's motors only, as many as its parameters or type say, and only when they are PWM
+//! pulses ([`motors`], [`Samples::motor_us`]); the Crazyflie dataset has none. What the log says
+//! about itself —
 //! firmware, vehicle type, metadata from its own parameters — is its [`LogInfo`].
 //!
 //! Metadata ([`FlightMeta`]) is layered, each value with its source ([`Flight::metadata`],
@@ -64,6 +69,7 @@ pub mod dataflash;
 mod error;
 pub mod loginfo;
 pub mod meta;
+pub mod motors;
 pub mod phase;
 mod resample;
 mod set;
@@ -112,6 +118,18 @@ pub struct Samples {
     /// A VTOL's own state: in transition or in fixed-wing flight (PX4
     /// `vtol_vehicle_status`), when logged.
     pub vtol_transition: Option<Vec<bool>>,
+    /// The motor commands, PWM µs as the flight controller commanded each ESC: one inner
+    /// `Vec` per motor (motor 1 first, in the order of the flight controller's outputs), each
+    /// with one value per sample. From the CSV's `motor1_us`, `motor2_us`, … as written; from
+    /// a binary log ([`motors`]: PX4 `actuator_outputs`, ArduPilot `RCOU`, MAVLink
+    /// `SERVO_OUTPUT_RAW`) only the vehicle's motors (their count from the log's own
+    /// parameters or vehicle type) and only when every command read lies in
+    /// [`motors::PWM_RANGE_US`], put on the battery's times by the crate's one rule for other
+    /// topics (as `altitude_m` and `throttle`): linear interpolation between the two commands
+    /// around a battery sample (not an average over its interval), the first or last command
+    /// held before the first or after the last. Never NaN. `None` when the log has no motor
+    /// outputs or they cannot be read as PWM for the motors (the flight's warnings say why).
+    pub motor_us: Option<Vec<Vec<f64>>>,
 }
 
 impl Samples {
@@ -169,6 +187,10 @@ impl Samples {
             && self.throttle.as_ref().is_none_or(|c| c.len() == n)
             && self.landed.as_ref().is_none_or(|c| c.len() == n)
             && self.vtol_transition.as_ref().is_none_or(|c| c.len() == n)
+            && self
+                .motor_us
+                .as_ref()
+                .is_none_or(|m| m.iter().all(|c| c.len() == n))
     }
 }
 
@@ -512,12 +534,13 @@ pub(crate) struct Decoded {
 
 impl Decoded {
     /// A log without phases or a land detector (DataFlash, telemetry logs): the battery's
-    /// samples kept, altitude and throttle on their times, what was read past, what the log
+    /// samples kept, altitude, throttle and motor commands on their times, what was read past, what the log
     /// says about itself.
     pub(crate) fn battery_log(
         chosen: battery::Chosen,
         altitude_m: Option<Vec<f64>>,
         throttle: Option<Vec<f64>>,
+        motor_us: Option<Vec<Vec<f64>>>,
         warnings: Vec<String>,
         info: LogInfo,
     ) -> Self {
@@ -528,6 +551,7 @@ impl Decoded {
                 current_a: chosen.current_a,
                 altitude_m,
                 throttle,
+                motor_us,
                 ..Samples::default()
             },
             landed: None,

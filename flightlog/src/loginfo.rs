@@ -104,6 +104,9 @@ pub struct LogInfo {
     pub vehicle: Option<Vehicle>,
     /// The battery read, and the others skipped.
     pub battery: Option<BatteryInfo>,
+    /// Where the motor commands ([`crate::Samples::motor_us`]) were read, when they were
+    /// (`actuator_outputs instance 0, output[0]–output[3] (CA_ROTOR_COUNT 4)`).
+    pub motors: Option<String>,
     /// Metadata taken from the log's own parameters and messages.
     pub meta: FlightMeta,
     /// For each key set in [`LogInfo::meta`], where in the log it came from (`BAT1_N_CELLS`,

@@ -1,5 +1,5 @@
 //! What `hoverbench flights` shows about a set of logs: per flight its format, span, rate,
-//! voltage and current ranges, energy drawn, phases with their source, metadata with its
+//! voltage and current ranges, energy drawn, motor commands, phases with their source, metadata with its
 //! source and warnings; per skipped file its reason. Computed here; the CLI only formats.
 
 use std::collections::BTreeMap;
@@ -45,8 +45,22 @@ pub struct FlightSummary {
     pub vehicle: Option<String>,
     /// The battery read (and the others, skipped or not used).
     pub battery: Option<String>,
+    /// The motor commands, when the flight has them ([`crate::Samples::motor_us`]).
+    pub motors: Option<MotorsSummary>,
     /// What did not stop the flight being read.
     pub warnings: Vec<String>,
+}
+
+/// A flight's motor commands, summarised.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct MotorsSummary {
+    /// How many motors (outputs) there are.
+    pub outputs: usize,
+    /// Lowest and highest command over every motor, µs (`None`: no sample).
+    pub range_us: Option<[f64; 2]>,
+    /// Where they were read (`RCOU.C1–C4 (FRAME_CLASS 1 (quad); …)`); `None` for a CSV's
+    /// `motorN_us` columns.
+    pub source: Option<String>,
 }
 
 /// One metadata value and its source, in words.
@@ -219,6 +233,11 @@ impl FlightSummary {
             firmware: flight.log.firmware.clone(),
             vehicle: flight.log.vehicle.as_ref().map(|v| v.description.clone()),
             battery,
+            motors: s.motor_us.as_ref().map(|m| MotorsSummary {
+                outputs: m.len(),
+                range_us: crate::motors::range_us(m).map(|r| r.map(|v| round(v, 1))),
+                source: flight.log.motors.clone(),
+            }),
             warnings: flight
                 .warnings
                 .iter()

@@ -15,7 +15,9 @@
 //! mV, `current_battery` cA, −1 unknown, `battery_remaining` %) as the battery, else
 //! `BATTERY_STATUS` (its cells' voltages summed, `current_battery` cA) per battery `id`;
 //! `GLOBAL_POSITION_INT.relative_alt` (mm) as altitude and `VFR_HUD.throttle` (%) as throttle,
-//! both interpolated onto the battery's times; `HEARTBEAT` for the vehicle type and
+//! both interpolated onto the battery's times, as is `SERVO_OUTPUT_RAW` (port 0,
+//! `servo1_raw`…, µs) for the motor commands of the motors the log's parameters or vehicle
+//! type name ([`crate::motors`]); `HEARTBEAT` for the vehicle type and
 //! autopilot; `STATUSTEXT` and `PARAM_VALUE` for what an ArduPilot log says about itself
 //! (firmware, frame, `BATT_CAPACITY`, …, as in [`crate::dataflash`]) or a PX4 one's parameters
 //! (`BAT1_N_CELLS`, `BAT1_CAPACITY`, `BAT1_V_EMPTY`, …, as in [`crate::ulog`]). Time is the ground
@@ -39,6 +41,7 @@ const HEARTBEAT: u32 = 0;
 const SYS_STATUS: u32 = 1;
 const PARAM_VALUE: u32 = 22;
 const GLOBAL_POSITION_INT: u32 = 33;
+const SERVO_OUTPUT_RAW: u32 = 36;
 const VFR_HUD: u32 = 74;
 const BATTERY_STATUS: u32 = 147;
 const STATUSTEXT: u32 = 253;
@@ -50,6 +53,10 @@ fn known(msg_id: u32) -> Option<(u8, usize)> {
         SYS_STATUS => (124, 31),
         PARAM_VALUE => (220, 25),
         GLOBAL_POSITION_INT => (104, 28),
+        // Wire order (MAVLink sorts the base fields by size): time_usec u32 at 0,
+        // servo1_raw…servo8_raw u16 at 4–19, port u8 at 20; the MAVLink 2 extension
+        // servo9_raw…servo16_raw u16 at 21–36 (not in CRC_EXTRA).
+        SERVO_OUTPUT_RAW => (222, 21),
         VFR_HUD => (20, 20),
         BATTERY_STATUS => (154, 49),
         STATUSTEXT => (83, 51),
@@ -417,6 +424,7 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
                 SYS_STATUS => "SYS_STATUS",
                 PARAM_VALUE => "PARAM_VALUE",
                 GLOBAL_POSITION_INT => "GLOBAL_POSITION_INT",
+                SERVO_OUTPUT_RAW => "SERVO_OUTPUT_RAW",
                 VFR_HUD => "VFR_HUD",
                 BATTERY_STATUS => "BATTERY_STATUS",
                 _ => "STATUSTEXT",
@@ -509,9 +517,115 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
     };
     let altitude_m = series(GLOBAL_POSITION_INT, &|p| f64::from(i32_at(p, 16)) / 1000.0);
     let throttle = series(VFR_HUD, &|p| f64::from(u16_at(p, 18)) / 100.0);
+
+    // The motor commands: SERVO_OUTPUT_RAW of port 0, the motors' outputs.
+    let servo: Vec<&Packet> = of(SERVO_OUTPUT_RAW)
+        .filter(|p| p.payload[20] == 0)
+        .collect();
+    let motor_us = if servo.is_empty() {
+        None
+    } else {
+        let read = motor_outputs(&params, &info, heartbeat).and_then(|outputs| {
+            // servo1_raw…servo8_raw at 4–19; servo9_raw… at 21 on, when the packet has them.
+            let at = |c: usize| {
+                if c <= 8 {
+                    4 + 2 * (c - 1)
+                } else {
+                    21 + 2 * (c - 9)
+                }
+            };
+            let t: Vec<f64> = servo.iter().map(|p| seconds(p) - t0).collect();
+            let rows: Vec<Vec<Option<f64>>> = servo
+                .iter()
+                .map(|p| {
+                    outputs
+                        .channels
+                        .iter()
+                        .map(|&c| {
+                            p.payload
+                                .get(at(c)..at(c) + 2)
+                                .map(|b| f64::from(u16::from_le_bytes([b[0], b[1]])))
+                        })
+                        .collect()
+                })
+                .collect();
+            let name = |m: usize| format!("SERVO_OUTPUT_RAW.servo{}_raw", outputs.channels[m]);
+            let columns = crate::motors::align(&t, &rows, outputs.channels.len(), &time_s, &name)?;
+            let c = &outputs.channels;
+            Ok((
+                columns,
+                format!(
+                    "SERVO_OUTPUT_RAW.servo{}_raw–servo{}_raw ({})",
+                    c[0],
+                    c[c.len() - 1],
+                    outputs.origin
+                ),
+            ))
+        });
+        match read {
+            Ok((columns, source)) => {
+                info.motors = Some(source);
+                Some(columns)
+            }
+            Err(why) => {
+                warnings.push(why);
+                None
+            }
+        }
+    };
     Ok(Decoded::battery_log(
-        chosen, altitude_m, throttle, warnings, info,
+        chosen, altitude_m, throttle, motor_us, warnings, info,
     ))
+}
+
+/// The outputs of a telemetry log's motors ([`crate::motors`]): for ArduPilot the frame from
+/// `FRAME_CLASS`, else the one its messages name, else the `HEARTBEAT`'s vehicle type, on the
+/// outputs `SERVOn_FUNCTION` gives them when the log has those; for PX4 `CA_ROTOR_COUNT`, else
+/// the vehicle type. `heartbeat` is the vehicle's (type, autopilot). `Err` is the warning.
+fn motor_outputs(
+    params: &HashMap<String, f64>,
+    info: &LogInfo,
+    heartbeat: Option<(u8, u8)>,
+) -> Result<crate::motors::MotorOutputs, String> {
+    let not_read = |why: String| format!("SERVO_OUTPUT_RAW not read as motor commands: {why}");
+    match heartbeat {
+        Some((t, 3)) => {
+            let class = params
+                .get("FRAME_CLASS")
+                .and_then(|&c| Some((c, crate::dataflash::frame_class_name(c as u32)?.0)));
+            let (frame, origin) = match (class, info.meta.frame.as_deref()) {
+                (Some((c, name)), _) => (name.to_owned(), format!("FRAME_CLASS {c} ({name})")),
+                (None, Some(f)) => (f.to_owned(), format!("frame {f} from the log's messages")),
+                (None, None) => {
+                    let frame = match t {
+                        2 => "quad",
+                        13 => "hexa",
+                        14 => "octa",
+                        _ => {
+                            return Err(not_read(format!(
+                                "no FRAME_CLASS, and the vehicle type (HEARTBEAT type {t}, {}) is not a quad-, hexa- or octorotor",
+                                crate::ulog::mav_type_name(u32::from(t))
+                            )));
+                        }
+                    };
+                    (
+                        frame.to_owned(),
+                        format!(
+                            "HEARTBEAT type {t}, {}",
+                            crate::ulog::mav_type_name(u32::from(t))
+                        ),
+                    )
+                }
+            };
+            crate::motors::ardupilot_outputs(params, &frame, &origin).map_err(not_read)
+        }
+        Some((t, 12)) => crate::motors::px4_outputs(params, Some((u32::from(t), "HEARTBEAT type")))
+            .map_err(not_read),
+        _ => Err(not_read(
+            "the autopilot is neither ArduPilot nor PX4 (HEARTBEAT), so its motors are not known"
+                .to_owned(),
+        )),
+    }
 }
 
 #[cfg(test)]
@@ -595,6 +709,130 @@ mod tests {
             "{:?}",
             d.warnings
         );
+    }
+
+    /// MAVLink's `CRC_EXTRA` of a message from its definition: X.25 over `NAME `, then
+    /// `type name ` of each base field in wire order (extensions left out), folded to a byte.
+    fn crc_extra(name: &str, fields: &[(&str, &str)]) -> u8 {
+        let mut crc = crc_x25(0xFFFF, format!("{name} ").as_bytes());
+        for (ty, field) in fields {
+            crc = crc_x25(crc, format!("{ty} {field} ").as_bytes());
+        }
+        ((crc & 0xFF) ^ (crc >> 8)) as u8
+    }
+
+    #[test]
+    fn servo_output_raw_has_the_crc_extra_of_its_definition() {
+        // common.xml: time_usec uint32, servo1_raw…servo8_raw uint16, port uint8 (sorted by
+        // size on the wire), then the extension servo9_raw…servo16_raw.
+        let servos: Vec<String> = (1..=8).map(|k| format!("servo{k}_raw")).collect();
+        let mut fields = vec![("uint32_t", "time_usec")];
+        fields.extend(servos.iter().map(|s| ("uint16_t", s.as_str())));
+        fields.push(("uint8_t", "port"));
+        assert_eq!(crc_extra("SERVO_OUTPUT_RAW", &fields), 222);
+        assert_eq!(known(SERVO_OUTPUT_RAW), Some((222, 21)));
+        // The derivation, checked on a message read before: VFR_HUD's 20.
+        let vfr = [
+            ("float", "airspeed"),
+            ("float", "groundspeed"),
+            ("float", "alt"),
+            ("float", "climb"),
+            ("int16_t", "heading"),
+            ("uint16_t", "throttle"),
+        ];
+        assert_eq!(
+            Some(crc_extra("VFR_HUD", &vfr)),
+            known(VFR_HUD).map(|k| k.0)
+        );
+    }
+
+    /// A SERVO_OUTPUT_RAW payload: `servo` µs on outputs 1…, port 0.
+    fn servo_output_raw(servo: &[u16]) -> Vec<u8> {
+        let mut p = vec![0u8; 37];
+        for (k, &v) in servo.iter().enumerate() {
+            let at = if k < 8 { 4 + 2 * k } else { 21 + 2 * (k - 8) };
+            p[at..at + 2].copy_from_slice(&v.to_le_bytes());
+        }
+        p
+    }
+
+    /// An ArduCopter telemetry log: its HEARTBEAT, parameters, then SYS_STATUS and
+    /// SERVO_OUTPUT_RAW at 2 Hz, the outputs of each from `servo(k)`.
+    fn ardupilot_tlog(params: &[(&str, f32)], servo: impl Fn(u64) -> Vec<u16>) -> Vec<u8> {
+        let t0 = 1_700_000_000_000_000u64;
+        let mut log = Vec::new();
+        let mut heartbeat = vec![0u8; 9];
+        heartbeat[4] = 2; // quadrotor
+        heartbeat[5] = 3; // ArduPilot
+        log.extend(v2(t0, HEARTBEAT, &heartbeat));
+        for &(name, value) in params {
+            log.extend(v2(t0, PARAM_VALUE, &param_value(name, value)));
+        }
+        for k in 0..20u64 {
+            let mut sys = vec![0u8; 31];
+            sys[14..16].copy_from_slice(&16_000u16.to_le_bytes());
+            sys[16..18].copy_from_slice(&1_000i16.to_le_bytes());
+            log.extend(v2(t0 + k * 500_000, SYS_STATUS, &sys));
+            log.extend(v2(
+                t0 + k * 500_000 + 250_000,
+                SERVO_OUTPUT_RAW,
+                &servo_output_raw(&servo(k)),
+            ));
+        }
+        log
+    }
+
+    #[test]
+    fn servo_outputs_of_the_frames_motors_on_their_outputs() {
+        // A hexa whose motors SERVOn_FUNCTION puts on outputs 3–8: 1100 + 10·k + output.
+        let mut params = vec![("FRAME_CLASS", 2.0), ("SERVO1_FUNCTION", 4.0)];
+        let names: Vec<String> = (3..=8).map(|n| format!("SERVO{n}_FUNCTION")).collect();
+        for (m, n) in names.iter().enumerate() {
+            params.push((n.as_str(), 33.0 + m as f32));
+        }
+        let log = ardupilot_tlog(&params, |k| {
+            (1..=10).map(|c| 1100 + 10 * k as u16 + c).collect()
+        });
+        let d = parse(&log, Path::new("hexa.tlog")).unwrap();
+        let m = d.samples.motor_us.as_ref().unwrap();
+        assert_eq!(m.len(), 6);
+        // Sample 2 at 1.0 s sits halfway between the packets of k = 1 and 2.
+        assert_eq!(m[0][2], 1100.0 + 15.0 + 3.0);
+        assert_eq!(m[5][2], 1100.0 + 15.0 + 8.0);
+        // Before the first packet: its value held.
+        assert_eq!(m[0][0], 1103.0);
+        assert_eq!(
+            d.info.motors.as_deref(),
+            Some(
+                "SERVO_OUTPUT_RAW.servo3_raw–servo8_raw (FRAME_CLASS 2 (hexa); outputs from SERVOn_FUNCTION)"
+            )
+        );
+        // A disarmed 0 among the motors' outputs: not PWM, not read, and said so.
+        let log = ardupilot_tlog(&[("FRAME_CLASS", 1.0)], |k| {
+            vec![if k == 5 { 0 } else { 1500 }; 4]
+        });
+        let d = parse(&log, Path::new("quad.tlog")).unwrap();
+        assert!(d.samples.motor_us.is_none());
+        assert!(
+            d.warnings
+                .iter()
+                .any(|w| w.starts_with("SERVO_OUTPUT_RAW.servo1_raw reads 0 at 2.750 s")),
+            "{:?}",
+            d.warnings
+        );
+        // A helicopter's outputs are not motors.
+        let log = ardupilot_tlog(&[("FRAME_CLASS", 6.0)], |_| vec![1500; 8]);
+        let d = parse(&log, Path::new("heli.tlog")).unwrap();
+        assert!(d.samples.motor_us.is_none());
+        assert!(
+            d.warnings.iter().any(|w| w.contains("the frame \"heli\"")),
+            "{:?}",
+            d.warnings
+        );
+        // Without FRAME_CLASS, the HEARTBEAT's quadrotor: outputs 1–4.
+        let log = ardupilot_tlog(&[], |_| vec![1234; 8]);
+        let d = parse(&log, Path::new("q.tlog")).unwrap();
+        assert_eq!(d.samples.motor_us.unwrap(), vec![vec![1234.0; 20]; 4]);
     }
 
     #[test]

@@ -16,7 +16,12 @@
 //! - `vehicle_local_position`: `z` (NED, so altitude = −z; samples with `z_valid` false are
 //!   dropped), interpolated onto the battery's times;
 //! - `vehicle_land_detected`: `landed`, held onto the battery's times, as the ground test of the
-//!   phase inference.
+//!   phase inference;
+//! - `actuator_outputs` instance 0: `output[0]`…`output[N−1]` as the motor commands (PWM µs),
+//!   N from `CA_ROTOR_COUNT`, else the vehicle type (quadrotor 4, hexarotor 6, octorotor 8),
+//!   interpolated onto the battery's times; not read (a warning says why) when N is not known
+//!   or a command is outside [`crate::motors::PWM_RANGE_US`] (DShot, a disarmed 0)
+//!   ([`crate::motors`], [`ULog::motor_commands`]).
 //!
 //! Time is the battery's `timestamp` from its first sample, s.
 
@@ -406,17 +411,34 @@ impl<'a> ULog<'a> {
         Ok(total)
     }
 
-    /// Offset and scalar type of a top-level scalar field of a topic.
+    /// Offset and scalar type of a top-level scalar field of a topic, or of one element of a
+    /// top-level array of scalars (`output[3]`, 0-based; `None` past its length).
     fn field(&self, topic: &str, field: &str) -> Result<Option<(usize, Scalar)>, String> {
         let fields = self
             .formats
             .get(topic)
             .ok_or_else(|| format!("no format for {topic:?}"))?;
+        let (field, element) = match field.split_once('[') {
+            Some((name, rest)) => {
+                match rest.strip_suffix(']').and_then(|k| k.parse::<usize>().ok()) {
+                    Some(k) => (name, Some(k)),
+                    None => return Ok(None),
+                }
+            }
+            None => (field, None),
+        };
         let mut memo = HashMap::new();
         let mut offset = 0usize;
         for f in fields {
             if f.name == field {
-                return Ok(Scalar::from_name(&f.type_name).map(|s| (offset, s)));
+                let Some(scalar) = Scalar::from_name(&f.type_name) else {
+                    return Ok(None);
+                };
+                return Ok(match element {
+                    None => Some((offset, scalar)),
+                    Some(k) if k < f.count => Some((offset + k * scalar.size(), scalar)),
+                    Some(_) => None,
+                });
             }
             offset = self
                 .type_size(&f.type_name, 0, &mut memo)?
@@ -524,6 +546,83 @@ impl<'a> ULog<'a> {
             });
         }
         Ok(rows)
+    }
+}
+
+/// The motor commands of a ULog as logged, before they are put on a flight's time base.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MotorCommands {
+    /// The motors' outputs and how they are known.
+    pub outputs: crate::motors::MotorOutputs,
+    /// The time of each `actuator_outputs` message, s (`timestamp`).
+    pub time_s: Vec<f64>,
+    /// Each message's command per motor, µs, motor 1 first (`None`: beyond its `noutputs`).
+    pub rows: Vec<Vec<Option<f64>>>,
+}
+
+impl MotorCommands {
+    /// Where they were read, in words.
+    pub fn source(&self) -> String {
+        let c = &self.outputs.channels;
+        let outputs = match (c.first(), c.last()) {
+            (Some(a), Some(b)) if c.len() > 1 => format!("output[{}]–output[{}]", a - 1, b - 1),
+            (Some(a), _) => format!("output[{}]", a - 1),
+            _ => String::new(),
+        };
+        format!(
+            "actuator_outputs instance 0, {outputs} ({})",
+            self.outputs.origin
+        )
+    }
+}
+
+impl ULog<'_> {
+    /// The motor commands: `actuator_outputs` instance 0, `output[0]`…`output[N−1]`, N from
+    /// `CA_ROTOR_COUNT`, else from `mav_type` (the vehicle type and where it came from;
+    /// [`crate::motors`]); a message's output at or past its `noutputs` is `None`. `Ok(None)`
+    /// when the log has no `actuator_outputs` instance 0; `Err` says why the outputs cannot be
+    /// read as the motors' (the motor count not known, a field the format lacks).
+    pub fn motor_commands(
+        &self,
+        path: &Path,
+        mav_type: Option<(u32, &str)>,
+    ) -> Result<Option<MotorCommands>, String> {
+        const TOPIC: &str = "actuator_outputs";
+        if !self.data.contains_key(&(TOPIC.to_owned(), 0)) {
+            return Ok(None);
+        }
+        let not_read = |why: String| format!("{TOPIC} not read as motor commands: {why}");
+        let outputs = crate::motors::px4_outputs(&self.parameters, mav_type).map_err(not_read)?;
+        let names: Vec<String> = outputs
+            .channels
+            .iter()
+            .map(|c| format!("output[{}]", c - 1))
+            .collect();
+        let mut fields = vec![("timestamp", true), ("noutputs", false)];
+        fields.extend(names.iter().map(|n| (n.as_str(), true)));
+        let rows = self
+            .rows(TOPIC, 0, &fields, path)
+            .map_err(|e| not_read(e.to_string()))?;
+        let mut time_s = Vec::with_capacity(rows.len());
+        let mut values = Vec::with_capacity(rows.len());
+        for r in &rows {
+            let Some(t) = r.values[0] else { continue };
+            let n = r.values[1];
+            time_s.push(t / 1e6);
+            values.push(
+                outputs
+                    .channels
+                    .iter()
+                    .zip(&r.values[2..])
+                    .map(|(&c, &v)| v.filter(|_| n.is_none_or(|n| (c as f64) <= n)))
+                    .collect(),
+            );
+        }
+        Ok(Some(MotorCommands {
+            outputs,
+            time_s,
+            rows: values,
+        }))
     }
 }
 
@@ -686,12 +785,12 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
         .unwrap_or_default();
     let status_vtol = status.iter().any(|r| r.values[1] == Some(1.0));
     let status_type = status.iter().find_map(|r| r.values[0]);
-    let vehicle = match (param(&log, &["MAV_TYPE"], |v| v >= 0.0), status_type) {
-        (Some((_, t)), _) => Some((t as u32, "MAV_TYPE".to_owned())),
-        (None, Some(t)) => Some((t as u32, "vehicle_status.system_type".to_owned())),
+    let mav_type = match (param(&log, &["MAV_TYPE"], |v| v >= 0.0), status_type) {
+        (Some((_, t)), _) => Some((t as u32, "MAV_TYPE")),
+        (None, Some(t)) => Some((t as u32, "vehicle_status.system_type")),
         (None, None) => None,
-    }
-    .map(|(t, origin)| {
+    };
+    let vehicle = mav_type.map(|(t, origin)| {
         let mut kind = VehicleKind::from_mav_type(t);
         let mut description = format!("{} ({origin} {t})", mav_type_name(t));
         if status_vtol && kind != VehicleKind::Vtol {
@@ -776,9 +875,38 @@ pub(crate) fn parse(bytes: &[u8], path: &Path) -> Result<Decoded, FlightLogError
         }
         None => None,
     };
+    // The motor commands, onto the battery's times; a log without them says nothing.
+    let motor_us = match log.motor_commands(path, mav_type) {
+        Ok(None) => None,
+        Ok(Some(m)) => {
+            let name = |k: usize| format!("actuator_outputs.output[{}]", m.outputs.channels[k] - 1);
+            let time_s_log: Vec<f64> = m.time_s.iter().map(|t| t - t0).collect();
+            match crate::motors::align(
+                &time_s_log,
+                &m.rows,
+                m.outputs.channels.len(),
+                &time_s,
+                &name,
+            ) {
+                Ok(columns) => {
+                    info.motors = Some(m.source());
+                    Some(columns)
+                }
+                Err(why) => {
+                    warnings.push(why);
+                    None
+                }
+            }
+        }
+        Err(why) => {
+            warnings.push(why);
+            None
+        }
+    };
     Ok(Decoded {
         samples: Samples {
             vtol_transition,
+            motor_us,
             time_s,
             voltage_v: chosen.voltage_v,
             current_a: chosen.current_a,

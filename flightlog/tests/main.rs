@@ -17,6 +17,8 @@ mod crazyflie;
 mod dataflash;
 #[path = "dataflash_text.rs"]
 mod dataflash_text;
+#[path = "motors.rs"]
+mod motors;
 #[path = "never_panics.rs"]
 mod never_panics;
 #[path = "real_logs.rs"]

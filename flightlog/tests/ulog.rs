@@ -230,3 +230,76 @@ fn read_from_file_by_extension() {
     assert_eq!(flight.format, LogFormat::Ulog);
     assert_eq!(flight.source, path);
 }
+
+/// An `actuator_outputs` message: `noutputs` and the 16 outputs.
+fn actuator_outputs(timestamp_us: u64, noutputs: u32, output: [f32; 16]) -> Vec<u8> {
+    let mut p = timestamp_us.to_le_bytes().to_vec();
+    p.extend_from_slice(&noutputs.to_le_bytes());
+    for o in output {
+        p.extend_from_slice(&o.to_le_bytes());
+    }
+    p.extend_from_slice(&[0; 4]);
+    p
+}
+
+/// A log with a battery at 5 Hz for 2 s and `actuator_outputs` at 10 Hz, 25 ms after each
+/// tenth of a second, output `j` of message `k` at 1000 + 10·k + j µs; `CA_ROTOR_COUNT` as an
+/// `int32_t` parameter when given.
+fn motor_log(rotor_count: Option<i32>, noutputs: u32) -> Vec<u8> {
+    let mut w = UlogWriter::new(0);
+    w.format(ULOG_FORMATS[0]);
+    w.format("actuator_outputs:uint64_t timestamp;uint32_t noutputs;float[16] output;uint8_t[4] _padding0;");
+    if let Some(n) = rotor_count {
+        let key = "int32_t CA_ROTOR_COUNT";
+        let mut p = vec![key.len() as u8];
+        p.extend_from_slice(key.as_bytes());
+        p.extend_from_slice(&n.to_le_bytes());
+        w.message(b'P', &p);
+    }
+    w.subscribe(0, 0, "battery_status");
+    w.subscribe(0, 1, "actuator_outputs");
+    for k in 0..=20u64 {
+        if k % 2 == 0 {
+            w.data(0, &battery_status(k * 100_000, 12.0, 5.0));
+        }
+        let output: [f32; 16] = std::array::from_fn(|j| 1000.0 + 10.0 * k as f32 + j as f32);
+        w.data(1, &actuator_outputs(k * 100_000 + 25_000, noutputs, output));
+    }
+    w.finish()
+}
+
+#[test]
+fn motor_commands_from_the_rotor_count_interpolated_onto_the_battery() {
+    let flight = parse(&motor_log(Some(6), 8)).unwrap();
+    assert!(flight.samples.is_consistent());
+    let m = flight.samples.motor_us.as_ref().unwrap();
+    assert_eq!(m.len(), 6);
+    // Battery sample 1 at 0.2 s: three quarters of the way from message 1 (0.125 s) to 2
+    // (0.225 s).
+    assert!((m[0][1] - 1017.5).abs() < 1e-9, "{}", m[0][1]);
+    assert!((m[5][1] - 1022.5).abs() < 1e-9, "{}", m[5][1]);
+    // Battery sample 0 at 0 s, before the first message: its value held.
+    assert_eq!(m[2][0], 1002.0);
+    assert_eq!(
+        flight.log.motors.as_deref(),
+        Some("actuator_outputs instance 0, output[0]–output[5] (CA_ROTOR_COUNT 6)")
+    );
+    // Six rotors asked for, four outputs sent: motor 5 has no command, nothing is read.
+    let flight = parse(&motor_log(Some(6), 4)).unwrap();
+    assert!(flight.samples.motor_us.is_none());
+    assert!(
+        flight.warnings.iter().any(|w| w
+            == "actuator_outputs.output[4] has no value during the flight: no motor commands read"),
+        "{:?}",
+        flight.warnings
+    );
+    // No rotor count and no vehicle type: not read, and said so.
+    let flight = parse(&motor_log(None, 8)).unwrap();
+    assert!(flight.samples.motor_us.is_none());
+    assert!(
+        flight.warnings.iter().any(|w| w
+            == "actuator_outputs not read as motor commands: no CA_ROTOR_COUNT and no vehicle type"),
+        "{:?}",
+        flight.warnings
+    );
+}

@@ -10,7 +10,7 @@ use flightlog::summary::{FlightSummary, SetSummary};
 use crate::output;
 
 /// Inspect flight logs (folders or files: CSV with sidecar TOML, PX4 .ulg, ArduPilot .bin or
-/// its text .log, a ground station's MAVLink .tlog, the Crazyflie dataset): format, span, rate, voltage and current, energy drawn, phases and
+/// its text .log, a ground station's MAVLink .tlog, the Crazyflie dataset): format, span, rate, voltage and current, energy drawn, motor commands, phases and
 /// metadata with their sources, warnings, and every skipped file with its reason.
 #[derive(Debug, clap::Args)]
 pub struct Args {
@@ -69,6 +69,16 @@ fn print_flight(f: &FlightSummary) {
     }
     if let Some(b) = &f.battery {
         println!("    battery: {b}");
+    }
+    if let Some(m) = &f.motors {
+        let range = m.range_us.map_or_else(String::new, |[lo, hi]| {
+            format!(", {}–{} µs", num(lo, 0), num(hi, 0))
+        });
+        let source = m
+            .source
+            .as_ref()
+            .map_or_else(String::new, |s| format!(" from {s}"));
+        println!("    motors: {} outputs{range}{source}", m.outputs);
     }
     for e in &f.phase_evidence {
         println!(
