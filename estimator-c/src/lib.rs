@@ -17,7 +17,8 @@
 //! # let curve = estimator::PolyCurve::new(&[22.36, 29.12, 6.76], 130.0, 130.0, (0.0, 260.0), None).unwrap();
 //! # let params = estimator::Params { rotor_count: 4, curve, thrust_limit: None,
 //! #     battery: Some(BatteryModel::lipo(3, 2.1).unwrap()),
-//! #     vehicle: Some(Vehicle { structure_mass_kg: 0.431, battery_mass_kg: 0.144, payload_mass_kg: 0.0, avionics_power_w: 2.44, payload_power_w: 0.0 }) };
+//! #     vehicle: Some(Vehicle { structure_mass_kg: 0.431, battery_mass_kg: 0.144, payload_mass_kg: 0.0, avionics_power_w: 2.44, payload_power_w: 0.0 }),
+//! #     motor: None };
 //! # let mut blob = [0u8; estimator::params::MAX_BLOB_LEN];
 //! # let len = params.encode(&mut blob).unwrap();
 //! let mut state = HbOnlineState::ZEROED;

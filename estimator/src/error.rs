@@ -61,6 +61,41 @@ pub enum EstimateError {
         /// Curve range end, g.
         max_g: f64,
     },
+    /// A motor map's zero command is not below its full command.
+    #[error("motor map: zero_us ({zero_us} µs) must be below full_us ({full_us} µs)")]
+    MotorCommandRange {
+        /// Command of zero duty, µs.
+        zero_us: f64,
+        /// Command of full duty, µs.
+        full_us: f64,
+    },
+    /// The drive voltage of a command lies below the motor map's measured range: the motor
+    /// turns slower than the sweeps' first step (at idle, expected).
+    #[error(
+        "drive voltage {drive_v:.3} V is below the motor map's measured range ({min_v:.3}–{max_v:.3} V): \
+         the motor turns slower than the sweeps' first step; the map is not extrapolated"
+    )]
+    DriveBelowRange {
+        /// Drive voltage asked, V.
+        drive_v: f64,
+        /// Map range start, V.
+        min_v: f64,
+        /// Map range end, V.
+        max_v: f64,
+    },
+    /// The drive voltage of a command lies above the motor map's measured range.
+    #[error(
+        "drive voltage {drive_v:.3} V is above the motor map's measured range ({min_v:.3}–{max_v:.3} V); \
+         the map is not extrapolated: sweep the motor to a higher drive"
+    )]
+    DriveAboveRange {
+        /// Drive voltage asked, V.
+        drive_v: f64,
+        /// Map range start, V.
+        min_v: f64,
+        /// Map range end, V.
+        max_v: f64,
+    },
     /// The curve gives no positive power at the hover thrust.
     #[error(
         "total power at {total_mass_kg:.3} kg take-off mass is {power_w} W: the curve is not usable there"

@@ -9,6 +9,11 @@
 //! Two optional sections feed the online estimator ([`crate::online`]): `[battery]`
 //! (versioned: `version = 1`; the pack model the gap diagnosis learns) and `[vehicle]` (the
 //! masses and powers of eqs. 1–2). A file without them is read as before.
+//!
+//! The optional `[motor]` section is the motor map ([`crate::MotorMap`]: per-rotor power from
+//! the ESC command and the supply voltage, not in the paper), which `fit` writes when both
+//! sweeps logged the throttle and the power; its `[[motor.sweeps]]` say how well it fits each
+//! sweep. A file without it reads as `motor: None`, and is written back byte for byte.
 
 use std::path::{Path, PathBuf};
 
@@ -16,7 +21,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::online::{BatteryModel, Chemistry, OCV_KNOTS, Vehicle};
 use crate::params::{Params, ThrustLimit};
-use crate::{EstimateError, PolyCurve};
+use crate::{EstimateError, MotorMap, PolyCurve};
 
 /// Value of the `schema` key.
 pub const SCHEMA: &str = "hoverbench.params";
@@ -50,6 +55,145 @@ pub struct ParamsFile {
     /// The robot's masses and powers (eqs. 1–2), for the online estimator.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub vehicle: Option<VehicleSection>,
+    /// Per-rotor power from the ESC command and the supply voltage (not in the paper).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub motor: Option<MotorSection>,
+}
+
+/// `[motor]`: the motor map, `power_w = Σ coefficients_scaled[k] · tᵏ`,
+/// `t = (drive_v − center_v) / scale_v`, `drive_v = duty · supply voltage`,
+/// `duty = (us − zero_us) / (full_us − zero_us)` clamped to 0..1 (see [`crate::motor`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotorSection {
+    /// ESC command where the duty starts to rise from zero, µs (fitted).
+    pub zero_us: f64,
+    /// ESC command of full duty, µs (the rig's top of range).
+    pub full_us: f64,
+    /// Degree of the power curve over drive voltage.
+    pub degree: usize,
+    /// Centre of the drive-voltage scaling, V.
+    pub center_v: f64,
+    /// Half-width of the drive-voltage scaling, V.
+    pub scale_v: f64,
+    /// Coefficients of power (W) in `t`, ascending: what the estimator evaluates.
+    pub coefficients_scaled: Vec<f64>,
+    /// The same polynomial in ascending powers of the drive voltage itself (W per Vᵏ), for
+    /// people and other tools; the estimator does not read it.
+    pub coefficients_monomial: Vec<f64>,
+    /// Lowest drive voltage the sweeps covered, V.
+    pub drive_v_min: f64,
+    /// Highest drive voltage the sweeps covered, V.
+    pub drive_v_max: f64,
+    /// Relative RMS residual of the fit over all its points (0.01 = 1 %).
+    pub fit_rmse_fraction: f64,
+    /// Where the map came from, as text.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub source: String,
+    /// How well it fits each sweep.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub sweeps: Vec<MotorSweepSection>,
+}
+
+/// `[[motor.sweeps]]`: one sweep the motor map was fitted to.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MotorSweepSection {
+    /// The sweep's file.
+    pub file: String,
+    /// Its supply voltage, V.
+    pub supply_voltage_v: f64,
+    /// Steps fitted.
+    pub n_points: usize,
+    /// Relative RMS residual of the map on them.
+    pub rmse_fraction: f64,
+}
+
+impl MotorSection {
+    /// The map, checked; the error names the key at fault.
+    pub fn to_map(&self) -> Result<MotorMap, (&'static str, String)> {
+        if self.coefficients_scaled.len() != self.degree + 1 {
+            return Err((
+                "degree",
+                format!(
+                    "motor.degree is {} but motor.coefficients_scaled has {} entries",
+                    self.degree,
+                    self.coefficients_scaled.len()
+                ),
+            ));
+        }
+        MotorMap::new(
+            self.zero_us,
+            self.full_us,
+            &self.coefficients_scaled,
+            self.center_v,
+            self.scale_v,
+            (self.drive_v_min, self.drive_v_max),
+            self.fit_rmse_fraction,
+        )
+        .map_err(|e| {
+            let key = match e {
+                EstimateError::NonFinite { what, .. }
+                | EstimateError::NotPositive { what, .. }
+                | EstimateError::Negative { what, .. } => match what {
+                    "motor map zero_us" => "zero_us",
+                    "motor map full_us" => "full_us",
+                    "motor map fit_rmse_fraction" => "fit_rmse_fraction",
+                    "curve center_g" => "center_v",
+                    "curve scale_g" => "scale_v",
+                    "curve valid_min_g" => "drive_v_min",
+                    "curve valid_max_g" => "drive_v_max",
+                    _ => "coefficients_scaled",
+                },
+                EstimateError::MotorCommandRange { .. } => "full_us",
+                EstimateError::CurveDegree { .. } => "degree",
+                EstimateError::CurveRange { min_g, .. } if min_g < 0.0 => "drive_v_min",
+                EstimateError::CurveRange { .. } => "drive_v_max",
+                _ => "zero_us",
+            };
+            // The curve's checks speak of grams; the map's curve is over volts.
+            if let EstimateError::CurveRange { min_g, max_g } = e {
+                return (
+                    key,
+                    format!(
+                        "motor.{key}: the drive-voltage range must satisfy 0 ≤ drive_v_min < drive_v_max, got {min_g} V .. {max_g} V"
+                    ),
+                );
+            }
+            let message = e
+                .to_string()
+                .replace("curve center_g", "the drive-voltage centre")
+                .replace("curve scale_g", "the drive-voltage scale")
+                .replace("curve valid_min_g", "drive_v_min")
+                .replace("curve valid_max_g", "drive_v_max")
+                .replace("curve coefficient", "a coefficient");
+            (key, format!("motor.{key}: {message}"))
+        })
+    }
+
+    /// The section of a map, with its provenance and per-sweep fit.
+    pub fn from_map(
+        map: &MotorMap,
+        coefficients_monomial: Vec<f64>,
+        source: &str,
+        sweeps: Vec<MotorSweepSection>,
+    ) -> Self {
+        let (lo, hi) = map.drive_range_v();
+        Self {
+            zero_us: map.zero_us(),
+            full_us: map.full_us(),
+            degree: map.degree(),
+            center_v: map.center_v(),
+            scale_v: map.scale_v(),
+            coefficients_scaled: map.coefficients_scaled().to_vec(),
+            coefficients_monomial,
+            drive_v_min: lo,
+            drive_v_max: hi,
+            fit_rmse_fraction: map.fit_rmse_fraction(),
+            source: source.to_owned(),
+            sweeps,
+        }
+    }
 }
 
 /// `[battery]`: the pack model (per cell: open-circuit curve, series resistance, one RC pair).
@@ -479,6 +623,14 @@ pub enum ParamsFileError {
         /// What is wrong.
         message: String,
     },
+    /// The `[motor]` section is not a valid motor map.
+    #[error("{}{message}", path_prefix(path.as_deref()))]
+    Motor {
+        /// The file.
+        path: Option<PathBuf>,
+        /// What is wrong.
+        message: String,
+    },
     /// The scaled coefficients disagree with the stated degree.
     #[error("{}curve.degree is {degree} but curve.coefficients_scaled has {len} entries", path_prefix(path.as_deref()))]
     DegreeMismatch {
@@ -761,6 +913,10 @@ impl ParamsFile {
             b.to_model()
                 .map_err(|(key, message)| at("battery", key, message))?;
         }
+        if let Some(m) = &self.motor {
+            m.to_map()
+                .map_err(|(key, message)| at("motor", key, message))?;
+        }
         if let Some(v) = &self.vehicle {
             v.to_vehicle().validate().map_err(|e| {
                 let key = match e {
@@ -858,12 +1014,20 @@ impl ParamsFile {
                 Some(v)
             }
         };
+        let motor = match &self.motor {
+            None => None,
+            Some(m) => Some(m.to_map().map_err(|(_, message)| ParamsFileError::Motor {
+                path: None,
+                message,
+            })?),
+        };
         Ok(Params {
             rotor_count: self.rotor_count,
             curve,
             thrust_limit,
             battery,
             vehicle,
+            motor,
         })
     }
 }
@@ -916,6 +1080,7 @@ mod tests {
             },
             battery: None,
             vehicle: None,
+            motor: None,
         }
     }
 
@@ -969,6 +1134,170 @@ mod tests {
             .to_params()
             .unwrap();
         assert!((p2.battery.unwrap().rated_capacity_ah - 2.2).abs() < 1e-12);
+    }
+
+    fn motor_section() -> MotorSection {
+        let map = MotorMap::new(
+            1083.25,
+            2000.0,
+            &[31.5, 42.25, 12.0, 1.125],
+            6.5,
+            5.25,
+            (1.25, 11.75),
+            0.0125,
+        )
+        .unwrap();
+        MotorSection::from_map(
+            &map,
+            vec![0.5, 1.0, 0.25, 0.125],
+            "sweep.csv (12.5 V) and limit.csv (9 V)",
+            vec![
+                MotorSweepSection {
+                    file: "sweep.csv".into(),
+                    supply_voltage_v: 12.5,
+                    n_points: 27,
+                    rmse_fraction: 0.01,
+                },
+                MotorSweepSection {
+                    file: "limit.csv".into(),
+                    supply_voltage_v: 9.0,
+                    n_points: 21,
+                    rmse_fraction: 0.015,
+                },
+            ],
+        )
+    }
+
+    #[test]
+    fn the_motor_section_round_trips_and_gives_the_map() {
+        let mut f = sample();
+        f.motor = Some(motor_section());
+        let text = f.to_toml_string();
+        for key in [
+            "[motor]",
+            "zero_us = 1083.25",
+            "full_us = 2000.0",
+            "drive_v_min = 1.25",
+            "drive_v_max = 11.75",
+            "fit_rmse_fraction = 0.0125",
+            "[[motor.sweeps]]",
+            "supply_voltage_v = 9.0",
+        ] {
+            assert!(text.contains(key), "{key}: {text}");
+        }
+        let back = ParamsFile::from_toml_str(&text).unwrap();
+        assert_eq!(back, f);
+        let m = back.to_params().unwrap().motor.unwrap();
+        assert_eq!(m.zero_us(), 1083.25);
+        assert_eq!(m.coefficients_scaled(), &[31.5, 42.25, 12.0, 1.125]);
+        assert_eq!(m.drive_range_v(), (1.25, 11.75));
+        // A hand-written section needs neither source nor sweeps.
+        let mut bare = f.clone();
+        let b = bare.motor.as_mut().unwrap();
+        b.source.clear();
+        b.sweeps.clear();
+        let t = bare.to_toml_string();
+        assert!(!t.contains("motor.sweeps") && !t.contains("source"), "{t}");
+        assert_eq!(ParamsFile::from_toml_str(&t).unwrap(), bare);
+    }
+
+    #[test]
+    fn a_file_without_motor_reads_as_none_and_writes_back_byte_for_byte() {
+        let text = with_battery().to_toml_string();
+        let back = ParamsFile::from_toml_str(&text).unwrap();
+        assert_eq!(back.motor, None);
+        assert_eq!(back.to_params().unwrap().motor, None);
+        assert_eq!(back.to_toml_string(), text);
+        // A file an earlier hoverbench wrote (the replay tests' parameters).
+        let old = include_str!("../../tests/data/replay/params.toml");
+        let f = ParamsFile::from_toml_str(old).unwrap();
+        assert_eq!(f.motor, None);
+        assert_eq!(f.to_toml_string(), old);
+    }
+
+    #[test]
+    fn motor_section_errors_name_the_key_and_line() {
+        let mut f = sample();
+        f.motor = Some(motor_section());
+        let text = f.to_toml_string();
+        let line_of =
+            |t: &str, prefix: &str| t.lines().position(|l| l.starts_with(prefix)).unwrap() + 1;
+        for (bad, key, needle) in [
+            (
+                text.replace("zero_us = 1083.25", "zero_us = 2500.0"),
+                "full_us",
+                "below full_us",
+            ),
+            (
+                text.replace("scale_v = 5.25", "scale_v = 0.0"),
+                "scale_v",
+                "drive-voltage scale",
+            ),
+            (
+                text.replace("drive_v_min = 1.25", "drive_v_min = 20.0"),
+                "drive_v_max",
+                "motor.drive_v_max",
+            ),
+            (
+                text.replace("fit_rmse_fraction = 0.0125", "fit_rmse_fraction = -1.0"),
+                "fit_rmse_fraction",
+                "fit_rmse_fraction",
+            ),
+            (
+                text.replace("degree = 3\ncenter_v", "degree = 4\ncenter_v"),
+                "degree",
+                "motor.degree is 4",
+            ),
+        ] {
+            assert_ne!(bad, text, "{key}");
+            match ParamsFile::from_toml_str(&bad).unwrap_err() {
+                ParamsFileError::Syntax { line, message, .. } => {
+                    let (want, _) = key_position(&bad, "motor", key);
+                    assert_eq!(line, want, "{message}");
+                    assert!(
+                        bad.lines().nth(line - 1).unwrap().starts_with(key),
+                        "{key}: line {line}"
+                    );
+                    assert!(message.contains(needle), "{message}");
+                }
+                e => panic!("unexpected {e}"),
+            }
+        }
+        let _ = line_of(&text, "zero_us");
+        // An unknown key in the section.
+        let t = text.replace("[motor]\n", "[motor]\nzero_pct = 5\n");
+        assert!(matches!(
+            ParamsFile::from_toml_str(&t),
+            Err(ParamsFileError::Syntax { .. })
+        ));
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn motor_sections_round_trip_through_toml(
+            zero_us in 800.0f64..1300.0,
+            span_us in 100.0f64..1500.0,
+            coefficients in proptest::collection::vec(-1e4f64..1e4, 1..=crate::MAX_DEGREE + 1),
+            center_v in 0.0f64..50.0,
+            scale_v in 1e-3f64..50.0,
+            lo_v in 0.0f64..20.0,
+            width_v in 1e-6f64..40.0,
+            rmse in 0.0f64..1.0,
+            battery in proptest::prelude::any::<bool>(),
+        ) {
+            let map = MotorMap::new(zero_us, zero_us + span_us, &coefficients, center_v, scale_v, (lo_v, lo_v + width_v), rmse).unwrap();
+            let mut f = if battery { with_battery() } else { sample() };
+            let without = f.to_toml_string();
+            f.motor = Some(MotorSection::from_map(&map, coefficients.clone(), "p", vec![]));
+            let text = f.to_toml_string();
+            let back = ParamsFile::from_toml_str(&text).unwrap();
+            proptest::prop_assert_eq!(&back, &f);
+            proptest::prop_assert_eq!(back.to_params().unwrap().motor, Some(map));
+            // The rest of the file is what it was without the section.
+            let mut g = back;
+            g.motor = None;
+            proptest::prop_assert_eq!(g.to_toml_string(), without);
+        }
     }
 
     #[test]

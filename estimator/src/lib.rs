@@ -11,6 +11,9 @@
 //! - [`Model`]: curve + [`Platform`] (+ thrust limit `m_L`): [`Model::estimate`] (eqs. 1–6),
 //!   [`Model::optimise_battery`] (Fig. 4), [`Model::rank_entry`] (Fig. 5),
 //!   [`Model::evaluate_mission`] (eqs. 7–9, Table I).
+//! - [`MotorMap`]: per-rotor electrical power from the ESC command and the supply voltage
+//!   (not in the paper; fitted by `fit` from the rig's two sweeps), for flight controllers that
+//!   log commands but no current.
 //! - [`Params`]: what firmware needs from a characterisation, with an allocation-free binary
 //!   form ([`Params::decode`]).
 //!
@@ -51,6 +54,7 @@ mod curve;
 mod error;
 mod mission;
 mod model;
+pub mod motor;
 pub mod online;
 mod optimise;
 pub mod params;
@@ -68,6 +72,7 @@ pub use model::{
     ceiling_endurance_min, flight_endurance_min, idle_power_w, payload_limit_kg,
     post_ceiling_ratio, reserve_ratio, reserved_endurance_min, total_mass_kg,
 };
+pub use motor::MotorMap;
 pub use optimise::{BatteryOptimum, LIPO_NOMINAL_CELL_V, Optimum, RankedEndurance, pack_energy_wh};
 pub use params::{Params, ThrustLimit};
 

@@ -7,7 +7,7 @@
 //! ```
 //! # let bytes = {
 //! #     let curve = estimator::PolyCurve::new(&[10.0, 12.0, 3.0], 130.0, 130.0, (0.0, 260.0), Some(12.5)).unwrap();
-//! #     let p = estimator::Params { rotor_count: 4, curve, thrust_limit: None, battery: None, vehicle: None };
+//! #     let p = estimator::Params { rotor_count: 4, curve, thrust_limit: None, battery: None, vehicle: None, motor: None };
 //! #     let mut buf = [0u8; estimator::params::MAX_BLOB_LEN];
 //! #     let n = p.encode(&mut buf).unwrap();
 //! #     buf[..n].to_vec()
@@ -18,17 +18,22 @@
 //! ```
 //!
 //! Layout (little-endian): magic `HBPR`, version, rotor count, curve degree, flags (bit 0 thrust
-//! limit, bit 1 supply voltage, bit 2 battery model, bit 3 vehicle); centre, scale, range and
-//! supply voltage of the curve (5 × f64); the scaled coefficients; the thrust limit (3 × f64)
-//! when flagged; from version 2, the battery model ([`BATTERY_BLOCK_LEN`] bytes: cells,
-//! chemistry code, 6 zero bytes, rated capacity, 21 open-circuit knots, series resistance, RC
-//! resistance, RC time constant, cut-off voltage, as f64) and the vehicle (5 × f64: structure,
-//! battery and payload mass, avionics and payload power) when flagged; CRC-32 of everything
-//! before it. A blob without battery or vehicle is written as version 1, byte for byte what
-//! earlier versions wrote, and both versions are read.
+//! limit, bit 1 supply voltage, bit 2 battery model, bit 3 vehicle, bit 4 motor map); centre,
+//! scale, range and supply voltage of the curve (5 × f64); the scaled coefficients; the thrust
+//! limit (3 × f64) when flagged; from version 2, the battery model ([`BATTERY_BLOCK_LEN`] bytes:
+//! cells, chemistry code, 6 zero bytes, rated capacity, 21 open-circuit knots, series
+//! resistance, RC resistance, RC time constant, cut-off voltage, as f64), the vehicle (5 × f64:
+//! structure, battery and payload mass, avionics and payload power) and the motor map
+//! ([`motor_block_len`] bytes: the degree `d` of its power curve, 7 zero bytes; zero and full
+//! command in µs, centre and half-width of the drive-voltage scaling, drive-voltage range min
+//! and max in V, fit RMSE as a fraction (7 × f64); the `d + 1` scaled coefficients) when
+//! flagged; CRC-32 of everything before it. A blob without battery, vehicle or motor map is
+//! written as version 1, byte for byte what earlier versions wrote, and both versions are
+//! read.
 
 use crate::EstimateError;
 use crate::curve::{MAX_DEGREE, PolyCurve};
+use crate::motor::MotorMap;
 use crate::online::{BatteryModel, Chemistry, OCV_KNOTS, Vehicle};
 
 /// First four bytes of every blob.
@@ -40,10 +45,21 @@ pub const BLOB_VERSION: u8 = 2;
 pub const BATTERY_BLOCK_LEN: usize = 8 + (1 + OCV_KNOTS + 4) * 8;
 /// Bytes of the vehicle block (version 2).
 pub const VEHICLE_BLOCK_LEN: usize = 5 * 8;
+/// Bytes of the motor-map block (version 2) for a power curve of degree `degree`: degree byte
+/// and 7 zero bytes, 7 × f64, `degree + 1` coefficients.
+pub const fn motor_block_len(degree: usize) -> usize {
+    8 + 7 * 8 + (degree + 1) * 8
+}
 /// Longest possible blob, bytes: header (magic, version, rotors, degree, flags), scaling and
-/// range, coefficients, thrust limit, battery, vehicle, CRC.
-pub const MAX_BLOB_LEN: usize =
-    8 + 5 * 8 + (MAX_DEGREE + 1) * 8 + 3 * 8 + BATTERY_BLOCK_LEN + VEHICLE_BLOCK_LEN + 4;
+/// range, coefficients, thrust limit, battery, vehicle, motor map, CRC.
+pub const MAX_BLOB_LEN: usize = 8
+    + 5 * 8
+    + (MAX_DEGREE + 1) * 8
+    + 3 * 8
+    + BATTERY_BLOCK_LEN
+    + VEHICLE_BLOCK_LEN
+    + motor_block_len(MAX_DEGREE)
+    + 4;
 
 const CRC32: crc::Crc<u32> = crc::Crc::<u32>::new(&crc::CRC_32_ISO_HDLC);
 
@@ -71,6 +87,9 @@ pub struct Params {
     pub battery: Option<BatteryModel>,
     /// The robot's masses and powers (the `[vehicle]` section), for the online estimator.
     pub vehicle: Option<Vehicle>,
+    /// Per-rotor power from the ESC command and supply voltage (the `[motor]` section), when
+    /// both sweeps gave one.
+    pub motor: Option<MotorMap>,
 }
 
 impl Params {
@@ -97,6 +116,7 @@ impl Params {
             } else {
                 0
             }
+            + self.motor.map_or(0, |m| motor_block_len(m.degree()))
             + 4;
         if let Some(b) = &self.battery {
             b.validate()?;
@@ -104,7 +124,7 @@ impl Params {
         if let Some(v) = &self.vehicle {
             v.validate()?;
         }
-        let version = if self.battery.is_some() || self.vehicle.is_some() {
+        let version = if self.battery.is_some() || self.vehicle.is_some() || self.motor.is_some() {
             BLOB_VERSION
         } else {
             1
@@ -125,7 +145,8 @@ impl Params {
             u8::from(self.thrust_limit.is_some())
                 | (u8::from(self.curve.supply_voltage_v().is_some()) << 1)
                 | (u8::from(self.battery.is_some()) << 2)
-                | (u8::from(self.vehicle.is_some()) << 3),
+                | (u8::from(self.vehicle.is_some()) << 3)
+                | (u8::from(self.motor.is_some()) << 4),
         ]);
         let (lo, hi) = crate::PowerCurve::valid_range_g(&self.curve);
         for v in [
@@ -167,6 +188,25 @@ impl Params {
                 w.f64(x);
             }
         }
+        if let Some(m) = &self.motor {
+            // MAX_DEGREE < 256, so the degree fits a byte.
+            w.bytes(&[m.degree() as u8, 0, 0, 0, 0, 0, 0, 0]);
+            let (lo, hi) = m.drive_range_v();
+            for x in [
+                m.zero_us(),
+                m.full_us(),
+                m.center_v(),
+                m.scale_v(),
+                lo,
+                hi,
+                m.fit_rmse_fraction(),
+            ] {
+                w.f64(x);
+            }
+            for &c in m.coefficients_scaled() {
+                w.f64(c);
+            }
+        }
         let crc = CRC32.checksum(&w.buf[..w.pos]);
         w.bytes(&crc.to_le_bytes());
         Ok(w.pos)
@@ -195,7 +235,7 @@ impl Params {
         }
         let rotor_count = body[5];
         let degree = usize::from(body[6]);
-        let known_flags = if version == 1 { 0b11 } else { 0b1111 };
+        let known_flags = if version == 1 { 0b11 } else { 0b1_1111 };
         if body[7] & !known_flags != 0 {
             return Err(EstimateError::Blob {
                 reason: "unknown flags byte",
@@ -205,18 +245,35 @@ impl Params {
         let has_voltage = body[7] & 2 != 0;
         let has_battery = body[7] & 4 != 0;
         let has_vehicle = body[7] & 8 != 0;
+        let has_motor = body[7] & 16 != 0;
         if degree > MAX_DEGREE {
             return Err(EstimateError::CurveDegree {
                 coefficients: degree + 1,
                 max_degree: MAX_DEGREE,
             });
         }
-        let want = 8
+        let before_motor = 8
             + 5 * 8
             + (degree + 1) * 8
             + if has_limit { 24 } else { 0 }
             + if has_battery { BATTERY_BLOCK_LEN } else { 0 }
             + if has_vehicle { VEHICLE_BLOCK_LEN } else { 0 };
+        // The motor block's length follows from its own degree byte, its first.
+        let motor_degree = if has_motor {
+            let d = usize::from(*body.get(before_motor).ok_or(EstimateError::Blob {
+                reason: "length does not match the degree and flags",
+            })?);
+            if d > MAX_DEGREE {
+                return Err(EstimateError::CurveDegree {
+                    coefficients: d + 1,
+                    max_degree: MAX_DEGREE,
+                });
+            }
+            Some(d)
+        } else {
+            None
+        };
+        let want = before_motor + motor_degree.map_or(0, motor_block_len);
         if body.len() != want {
             return Err(EstimateError::Blob {
                 reason: "length does not match the degree and flags",
@@ -301,12 +358,44 @@ impl Params {
         } else {
             None
         };
+        let motor = match motor_degree {
+            None => None,
+            Some(d) => {
+                let head = r.bytes8();
+                if head[1..].iter().any(|&b| b != 0) {
+                    return Err(EstimateError::Blob {
+                        reason: "motor block: reserved bytes are not zero",
+                    });
+                }
+                let zero_us = r.f64();
+                let full_us = r.f64();
+                let center_v = r.f64();
+                let scale_v = r.f64();
+                let lo = r.f64();
+                let hi = r.f64();
+                let rmse = r.f64();
+                let mut c = [0.0; MAX_DEGREE + 1];
+                for c in c.iter_mut().take(d + 1) {
+                    *c = r.f64();
+                }
+                Some(MotorMap::new(
+                    zero_us,
+                    full_us,
+                    &c[..=d],
+                    center_v,
+                    scale_v,
+                    (lo, hi),
+                    rmse,
+                )?)
+            }
+        };
         Ok(Self {
             rotor_count,
             curve,
             thrust_limit,
             battery,
             vehicle,
+            motor,
         })
     }
 }
@@ -371,6 +460,7 @@ mod tests {
             }),
             battery: None,
             vehicle: None,
+            motor: None,
         }
     }
 
@@ -409,7 +499,7 @@ mod tests {
             let n = q.encode(&mut buf).unwrap();
             assert_eq!(Params::decode(&buf[..n]).unwrap(), q);
         }
-        // The longest blob fits MAX_BLOB_LEN exactly.
+        // The longest blob without a motor map: MAX_BLOB_LEN less the longest motor block.
         let mut p = with_battery(true);
         p.curve = PolyCurve::new(
             &[1.0; MAX_DEGREE + 1],
@@ -420,7 +510,108 @@ mod tests {
         )
         .unwrap();
         let mut buf = [0u8; MAX_BLOB_LEN];
+        assert_eq!(
+            p.encode(&mut buf).unwrap(),
+            MAX_BLOB_LEN - motor_block_len(MAX_DEGREE)
+        );
+    }
+
+    fn motor_map(coefficients: &[f64]) -> MotorMap {
+        MotorMap::new(1083.5, 2000.0, coefficients, 6.2, 5.1, (1.1, 11.3), 0.012).unwrap()
+    }
+
+    #[test]
+    fn a_motor_map_round_trips_behind_flag_bit_4_as_version_2() {
+        for limit in [false, true] {
+            let mut p = sample(limit);
+            p.motor = Some(motor_map(&[30.0, 40.0, 12.0, 1.5]));
+            let mut buf = [0u8; MAX_BLOB_LEN];
+            let n = p.encode(&mut buf).unwrap();
+            assert_eq!(buf[4], 2, "a motor block needs version 2");
+            assert_eq!(buf[7] & 0b1_0000, 0b1_0000);
+            assert_eq!(buf[7] & 0b1100, 0, "no battery, no vehicle");
+            // The block sits last, before the CRC, and is as long as its degree says.
+            let mut without = p;
+            without.motor = None;
+            let mut old = [0u8; MAX_BLOB_LEN];
+            let m = without.encode(&mut old).unwrap();
+            assert_eq!(n, m + motor_block_len(3));
+            assert_eq!(buf[m - 4], 3, "the block starts with its degree");
+            assert_eq!(Params::decode(&buf[..n]).unwrap(), p);
+            // With battery and vehicle too.
+            let mut q = with_battery(limit);
+            q.motor = p.motor;
+            let n = q.encode(&mut buf).unwrap();
+            assert_eq!(buf[7] & 0b1_1100, 0b1_1100);
+            assert_eq!(Params::decode(&buf[..n]).unwrap(), q);
+        }
+        // The longest blob, with a motor curve of the highest degree, fits MAX_BLOB_LEN exactly.
+        let mut p = with_battery(true);
+        p.curve = PolyCurve::new(
+            &[1.0; MAX_DEGREE + 1],
+            135.0,
+            125.0,
+            (10.0, 260.0),
+            Some(12.5),
+        )
+        .unwrap();
+        p.motor = Some(motor_map(&[2.0; MAX_DEGREE + 1]));
+        let mut buf = [0u8; MAX_BLOB_LEN];
         assert_eq!(p.encode(&mut buf).unwrap(), MAX_BLOB_LEN);
+        assert_eq!(Params::decode(&buf).unwrap(), p);
+    }
+
+    #[test]
+    fn a_version_1_blob_may_not_claim_a_motor_map_and_a_bad_motor_block_is_refused() {
+        let fix_crc = |b: &mut Vec<u8>| {
+            let n = b.len();
+            let crc = CRC32.checksum(&b[..n - 4]);
+            b[n - 4..].copy_from_slice(&crc.to_le_bytes());
+        };
+        let mut p = sample(false);
+        p.motor = Some(motor_map(&[30.0, 40.0]));
+        let mut buf = [0u8; MAX_BLOB_LEN];
+        let n = p.encode(&mut buf).unwrap();
+        let good = buf[..n].to_vec();
+        let mut v1 = good.clone();
+        v1[4] = 1;
+        fix_crc(&mut v1);
+        assert!(Params::decode(&v1).is_err());
+        // Its degree byte disagreeing with the length.
+        let start = n - 4 - motor_block_len(1);
+        let mut longer = good.clone();
+        longer[start] = 2;
+        fix_crc(&mut longer);
+        assert!(matches!(
+            Params::decode(&longer),
+            Err(EstimateError::Blob { .. })
+        ));
+        // A degree above the estimator's.
+        let mut huge = good.clone();
+        huge[start] = 200;
+        fix_crc(&mut huge);
+        assert!(matches!(
+            Params::decode(&huge),
+            Err(EstimateError::CurveDegree { .. })
+        ));
+        // Reserved bytes.
+        let mut reserved = good.clone();
+        reserved[start + 3] = 1;
+        fix_crc(&mut reserved);
+        assert!(Params::decode(&reserved).is_err());
+        // zero_us above full_us.
+        let mut swapped = good.clone();
+        swapped[start + 8..start + 16].copy_from_slice(&2500.0f64.to_le_bytes());
+        fix_crc(&mut swapped);
+        assert!(matches!(
+            Params::decode(&swapped),
+            Err(EstimateError::MotorCommandRange { .. })
+        ));
+        // Truncated right after the flags say there is a motor block.
+        let mut cut = good[..n - 4 - motor_block_len(1)].to_vec();
+        cut.extend_from_slice(&[0; 4]);
+        fix_crc(&mut cut);
+        assert!(Params::decode(&cut).is_err());
     }
 
     #[test]
@@ -432,6 +623,7 @@ mod tests {
             thrust_limit: None,
             battery: None,
             vehicle: None,
+            motor: None,
         };
         let mut old = b"HBPR\x01\x04\x02\x00".to_vec();
         for v in [0.0f64, 1.0, 0.0, 1.0, 0.0, 1.0, 2.0, 3.0] {
@@ -479,7 +671,8 @@ mod tests {
 
     #[test]
     fn every_single_bit_flip_is_detected() {
-        let p = with_battery(true);
+        let mut p = with_battery(true);
+        p.motor = Some(motor_map(&[30.0, 40.0, 12.0]));
         let mut buf = [0u8; MAX_BLOB_LEN];
         let n = p.encode(&mut buf).unwrap();
         for byte in 0..n {
@@ -502,12 +695,41 @@ mod tests {
 
     proptest! {
         #[test]
+        fn motor_maps_round_trip_bit_for_bit(
+            zero_us in 800.0f64..1300.0,
+            span_us in 100.0f64..1500.0,
+            coefficients in proptest::collection::vec(-1e3f64..1e3, 1..=MAX_DEGREE + 1),
+            center_v in 0.0f64..50.0,
+            scale_v in 1e-3f64..50.0,
+            lo_v in 0.0f64..20.0,
+            width_v in 1e-6f64..40.0,
+            rmse in 0.0f64..1.0,
+            limit in any::<bool>(),
+            battery in any::<bool>(),
+        ) {
+            let mut p = if battery { with_battery(limit) } else { sample(limit) };
+            p.motor = Some(MotorMap::new(zero_us, zero_us + span_us, &coefficients, center_v, scale_v, (lo_v, lo_v + width_v), rmse).unwrap());
+            let mut buf = [0u8; MAX_BLOB_LEN];
+            let n = p.encode(&mut buf).unwrap();
+            let back = Params::decode(&buf[..n]).unwrap();
+            prop_assert_eq!(back, p);
+            // Without the map, the bytes are what they were before the map existed.
+            let mut q = p;
+            q.motor = None;
+            let mut old = [0u8; MAX_BLOB_LEN];
+            let m = q.encode(&mut old).unwrap();
+            prop_assert_eq!(old[7] & 0b1_0000, 0);
+            prop_assert_eq!(old[4], if battery { 2 } else { 1 });
+            prop_assert_eq!(&buf[8..m - 4], &old[8..m - 4]);
+        }
+
+        #[test]
         fn decode_never_panics(bytes in proptest::collection::vec(any::<u8>(), 0..300)) {
             let _ = Params::decode(&bytes);
         }
 
         #[test]
-        fn decode_never_panics_on_valid_header(mut tail in proptest::collection::vec(any::<u8>(), 0..200), deg in 0u8..20, flags in 0u8..16, version in 1u8..3) {
+        fn decode_never_panics_on_valid_header(mut tail in proptest::collection::vec(any::<u8>(), 0..200), deg in 0u8..20, flags in 0u8..32, version in 1u8..3) {
             let mut bytes = MAGIC.to_vec();
             bytes.extend_from_slice(&[version, 4, deg, flags]);
             bytes.append(&mut tail);

@@ -17,6 +17,10 @@ pub enum Input {
     Thrust,
     /// The per-step thrust standard deviations of a thrust sweep.
     ThrustStd,
+    /// The supply voltage column of a sweep.
+    Voltage,
+    /// The electrical power column of a sweep.
+    Power,
 }
 
 impl fmt::Display for Input {
@@ -28,6 +32,8 @@ impl fmt::Display for Input {
             Input::Throttle => "throttle",
             Input::Thrust => "thrust",
             Input::ThrustStd => "thrust standard deviation",
+            Input::Voltage => "voltage",
+            Input::Power => "power",
         })
     }
 }

@@ -76,5 +76,6 @@ pub fn params_file(
         provenance,
         battery: None,
         vehicle: None,
+        motor: None,
     }
 }

@@ -17,6 +17,9 @@
 //! * [`thrust_limit`] → [`ThrustLimit`]: maximum sustained thrust of a sweep.
 //! * [`sweeps::fit_sweeps`]: the characterisation seam — a nominal sweep and an optional
 //!   limit sweep (already parsed by `import`) → `params.toml` and a [`sweeps::FitSummary`].
+//! * [`motor::fit_motor_map`] → [`motor::MotorMapFit`]: per-rotor power against the ESC's
+//!   drive voltage (`duty · V`) from sweeps at two supply voltages, the `[motor]` section (not in
+//!   the paper).
 //! * [`FitError`]: every failure, with the offending index and value. No
 //!   function panics on any input.
 //!
@@ -78,6 +81,7 @@ mod batch;
 mod dd;
 mod error;
 pub mod export;
+pub mod motor;
 mod poly;
 mod qr;
 mod scale;

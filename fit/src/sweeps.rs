@@ -35,11 +35,85 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
-use estimator::file::{ParamsFile, Provenance};
+use estimator::file::{MotorSection, MotorSweepSection, ParamsFile, Provenance};
 use import::stand::{PowerSource, StandLog, Step, ThrustOddity};
 
 use crate::export::{CurveLabels, LimitRecord, params_file};
+use crate::motor::{MotorMapFit, MotorMapOptions, MotorPoints, SweepResidual, fit_motor_map};
 use crate::{FitError, PolyFit, ThrustLimit, ThrustLimitOptions, thrust_limit};
+
+/// The rig's command range when no log states it, µs: the standard RC PWM range.
+pub const DEFAULT_COMMAND_RANGE_US: (f64, f64) = (1000.0, 2000.0);
+
+/// The rig's command range a hoverbench log's header states (`# rig: …, throttle 1000-2000
+/// us`), µs.
+pub fn command_range_us(comments: &[String]) -> Option<(f64, f64)> {
+    comments.iter().find_map(|c| {
+        let rest = &c[c.find("throttle ")? + "throttle ".len()..];
+        let (range, unit) = rest.split_once(' ')?;
+        if !unit.trim_start().starts_with("us") {
+            return None;
+        }
+        let (lo, hi) = range.split_once('-')?;
+        let (lo, hi) = (lo.parse::<f64>().ok()?, hi.parse::<f64>().ok()?);
+        (lo.is_finite() && hi.is_finite() && lo < hi).then_some((lo, hi))
+    })
+}
+
+/// A log's steps for the motor map: ESC command in µs, the voltage at each step (logged, else
+/// the sweep's), power and thrust; or why the log cannot give them.
+fn motor_points(
+    log: &StandLog,
+    power: Option<&[f64]>,
+    supply_voltage_v: Option<f64>,
+) -> Result<MotorPoints, String> {
+    let name = &log.source_name;
+    let column = log.columns.throttle.clone().ok_or_else(|| {
+        format!("{name} logs no throttle command (the map is power against the ESC's command)")
+    })?;
+    let throttle = log
+        .column(|s| s.throttle)
+        .ok_or_else(|| format!("{name}: the throttle column {column:?} is empty on some steps"))?;
+    // The map needs the command in µs: by the column's unit, else by its values.
+    let unit = import::units::split_unit(&column).1.map(str::to_lowercase);
+    let in_us = match unit.as_deref() {
+        Some("us" | "µs" | "μs") => true,
+        Some(_) => false,
+        None => throttle.iter().all(|u| (500.0..=2500.0).contains(u)),
+    };
+    if !in_us {
+        return Err(format!(
+            "{name}: the throttle column {column:?} is not an ESC command in µs"
+        ));
+    }
+    let power = match power {
+        Some(p) => p.to_vec(),
+        None => log.power_w(supply_voltage_v).map_err(|e| format!("{e}"))?.0,
+    };
+    let logged = log
+        .column(|s| s.voltage_v)
+        .filter(|v| v.iter().all(|v| *v > 0.0));
+    let (voltage_v, supply) = match (logged, supply_voltage_v) {
+        (Some(v), Some(s)) => (v, s),
+        (Some(v), None) => {
+            let mean = v.iter().sum::<f64>() / v.len() as f64;
+            (v, mean)
+        }
+        (None, Some(s)) => (vec![s; throttle.len()], s),
+        (None, None) => {
+            return Err(format!("{name}: no supply voltage (logged or given)"));
+        }
+    };
+    Ok(MotorPoints {
+        throttle_us: throttle,
+        voltage_v,
+        power_w: power,
+        thrust_g: log.thrust_g(),
+        supply_voltage_v: supply,
+        source_name: name.clone(),
+        command_range_us: command_range_us(&log.comments),
+    })
+}
 
 /// Largest thrust a stand log may report, g (10 t per rotor): beyond it the numbers are
 /// corrupt, and a fit of them would give coefficients no other command can use.
@@ -167,6 +241,8 @@ pub struct NominalSweep {
     /// Thrust readings a user should look at (a tare offset, a glitch), kept in the fit as
     /// logged (stand logs only).
     pub thrust_oddities: Vec<ThrustOddity>,
+    /// The steps for the motor map (command, voltage, power), or why the log has none.
+    pub motor_points: Result<MotorPoints, String>,
 }
 
 fn check_volts(v: Option<f64>) -> Result<Option<f64>, SweepFitError> {
@@ -316,7 +392,9 @@ impl NominalSweep {
                 None
             }
         };
+        let motor_points = motor_points(log, Some(&power), supply_voltage_v);
         Ok(Self {
+            motor_points,
             x: log.thrust_g(),
             y: power,
             x_name: "thrust_g".into(),
@@ -352,6 +430,9 @@ impl NominalSweep {
             source_name: source_name.to_owned(),
             sha256: import::sha256_hex(bytes),
             thrust_oddities: Vec::new(),
+            motor_points: Err(format!(
+                "{source_name} is a generic table, not a stand log with the ESC's command"
+            )),
         })
     }
 
@@ -378,6 +459,9 @@ pub struct LimitSweep {
     pub source_name: String,
     /// Its SHA-256, hex.
     pub sha256: String,
+    /// The steps for the motor map (command, voltage, power; not averaged), or why the log has
+    /// none.
+    pub motor_points: Result<MotorPoints, String>,
 }
 
 impl LimitSweep {
@@ -440,6 +524,7 @@ impl LimitSweep {
             None => logged_voltage(log).ok().flatten(),
         };
         Ok(Self {
+            motor_points: motor_points(log, None, supply_voltage_v),
             throttle: th,
             thrust_g: tg,
             thrust_std_g: std.map(|_| ts),
@@ -474,6 +559,8 @@ pub struct SweepFitOptions {
     pub tool: String,
     /// When (RFC 3339), for the provenance record.
     pub created: String,
+    /// Degree of the motor map's power curve over drive voltage.
+    pub motor_degree: usize,
 }
 
 impl SweepFitOptions {
@@ -485,6 +572,7 @@ impl SweepFitOptions {
             rotors,
             tool: tool.to_owned(),
             created: String::new(),
+            motor_degree: crate::motor::DEFAULT_MOTOR_DEGREE,
         }
     }
 }
@@ -516,6 +604,84 @@ pub struct FitSummary {
     pub limit_voltage_v: Option<f64>,
     /// Fit warnings.
     pub warnings: Vec<String>,
+    /// The motor map (power from ESC command and supply voltage), when both sweeps gave one.
+    pub motor_map: Option<MotorMapSummary>,
+    /// Why there is no motor map, when there is none.
+    pub motor_map_skipped: Option<String>,
+}
+
+/// The motor map of a characterisation, for summaries.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct MotorMapSummary {
+    /// Fitted command of zero duty, µs.
+    pub zero_us: f64,
+    /// Command of full duty, µs.
+    pub full_us: f64,
+    /// Degree of the power curve over drive voltage.
+    pub degree: usize,
+    /// Drive-voltage range covered, V.
+    pub drive_range_v: (f64, f64),
+    /// Relative RMS residual over all fitted steps.
+    pub rmse_fraction: f64,
+    /// Per sweep: file, supply voltage, steps, relative RMS residual.
+    pub sweeps: Vec<SweepResidual>,
+}
+
+impl MotorMapSummary {
+    /// One line for people: `motor map: power_w = P(duty × V), zero_us 1003.2, RMSE 0.31 % at
+    /// 12.50 V, 0.25 % at 9.00 V`.
+    pub fn line(&self) -> String {
+        let per: Vec<String> = self
+            .sweeps
+            .iter()
+            .map(|s| {
+                format!(
+                    "{:.2} % at {:.2} V ({} steps)",
+                    100.0 * s.rmse_fraction,
+                    s.supply_voltage_v,
+                    s.n_points
+                )
+            })
+            .collect();
+        format!(
+            "motor map: power_w = p(duty × V), degree {}, zero_us {:.1} (full {:.0} us), drive {:.2}..{:.2} V, RMSE {}",
+            self.degree,
+            self.zero_us,
+            self.full_us,
+            self.drive_range_v.0,
+            self.drive_range_v.1,
+            per.join(", ")
+        )
+    }
+}
+
+/// The motor map of the two sweeps, or why there is none (never an error: a log without the
+/// ESC's command is a fine characterisation).
+fn motor_map(
+    nominal: &NominalSweep,
+    limit: Option<&LimitSweep>,
+    degree: usize,
+    notes: &mut Vec<String>,
+) -> Result<MotorMapFit, String> {
+    let limit = limit.ok_or("it needs a limit sweep at a second supply voltage")?;
+    let n = nominal.motor_points.as_ref().map_err(Clone::clone)?;
+    let l = limit.motor_points.as_ref().map_err(Clone::clone)?;
+    let (min_us, full_us) = match n.command_range_us.or(l.command_range_us) {
+        Some(r) => r,
+        None => {
+            notes.push(format!(
+                "motor map: the logs do not state the rig's command range: taken as {}-{} us (standard RC)",
+                DEFAULT_COMMAND_RANGE_US.0, DEFAULT_COMMAND_RANGE_US.1
+            ));
+            DEFAULT_COMMAND_RANGE_US
+        }
+    };
+    let opts = MotorMapOptions {
+        degree,
+        full_us,
+        min_us,
+    };
+    fit_motor_map(&[n.clone(), l.clone()], &opts).map_err(|e| format!("fitting it failed: {e}"))
 }
 
 /// Everything [`fit_sweeps`] produced.
@@ -527,6 +693,8 @@ pub struct SweepFit {
     pub fit: PolyFit,
     /// The thrust limit, when a limit sweep was given.
     pub limit: Option<ThrustLimit>,
+    /// The motor map, when both sweeps logged the ESC's command and the power.
+    pub motor: Option<MotorMapFit>,
     /// The summary.
     pub summary: FitSummary,
     /// What was done that a user should know (the reader's notes and this module's).
@@ -620,6 +788,43 @@ pub fn fit_sweeps(
         }
         params.curve.valid_min = 0.0;
     }
+    let (motor, motor_skipped) = match motor_map(nominal, limit, opts.motor_degree, &mut notes) {
+        Ok(m) => (Some(m), None),
+        Err(reason) => {
+            notes.push(format!("no motor map: {reason}"));
+            (None, Some(reason))
+        }
+    };
+    let motor_summary = motor.as_ref().map(|m| MotorMapSummary {
+        zero_us: m.map.zero_us(),
+        full_us: m.map.full_us(),
+        degree: m.map.degree(),
+        drive_range_v: m.map.drive_range_v(),
+        rmse_fraction: m.map.fit_rmse_fraction(),
+        sweeps: m.per_sweep.clone(),
+    });
+    if let Some(m) = &motor {
+        let source = m
+            .per_sweep
+            .iter()
+            .map(|s| format!("{} ({:.2} V)", s.source_name, s.supply_voltage_v))
+            .collect::<Vec<_>>()
+            .join(" and ");
+        params.motor = Some(MotorSection::from_map(
+            &m.map,
+            m.fit.monomial_coefficients(),
+            &format!("fitted to {source}"),
+            m.per_sweep
+                .iter()
+                .map(|s| MotorSweepSection {
+                    file: s.source_name.clone(),
+                    supply_voltage_v: s.supply_voltage_v,
+                    n_points: s.n_points,
+                    rmse_fraction: s.rmse_fraction,
+                })
+                .collect(),
+        ));
+    }
     let stats = fitted.stats();
     let l = limit_record.map(|r| r.limit);
     let summary = FitSummary {
@@ -635,11 +840,14 @@ pub fn fit_sweeps(
         thrust_limit_total_kg: l.map(|l| l.thrust_g * f64::from(opts.rotors) / 1000.0),
         limit_voltage_v: limit_record.map(|r| r.supply_voltage_v),
         warnings: params.fit.warnings.clone(),
+        motor_map: motor_summary,
+        motor_map_skipped: motor_skipped,
     };
     Ok(SweepFit {
         params,
         fit: fitted,
         limit: l,
+        motor,
         summary,
         notes,
     })

@@ -428,6 +428,7 @@ pub fn prepare_scenario_with(
         thrust_limit: None,
         battery: None,
         vehicle: None,
+        motor: None,
     };
     let model = gap::model::Model {
         curve: &params.curve,

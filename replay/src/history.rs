@@ -431,6 +431,7 @@ mod tests {
             thrust_limit: None,
             battery: None,
             vehicle: None,
+            motor: None,
         };
         let battery = estimator::online::BatteryModel::lipo(3, 2.0).unwrap();
         let online = crate::online::FileOnline::new(

@@ -40,7 +40,7 @@
 //! flight.meta.capacity_mah = Some(2000.0);
 //!
 //! let curve = paper::reproduce().unwrap().curve;
-//! let params = estimator::Params { rotor_count: 4, curve, thrust_limit: None, battery: None, vehicle: None };
+//! let params = estimator::Params { rotor_count: 4, curve, thrust_limit: None, battery: None, vehicle: None, motor: None };
 //! let config = ReplayConfig::baselines_only(params);
 //! let r = replay_flight(&flight, &config).unwrap();
 //! assert_eq!(r.checkpoints.len(), 4);

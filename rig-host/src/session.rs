@@ -257,6 +257,7 @@ pub fn fit_sweeps(
         rotors,
         tool: format!("hoverbench rig-host {}", env!("CARGO_PKG_VERSION")),
         created: humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string(),
+        motor_degree: fit::motor::DEFAULT_MOTOR_DEGREE,
     };
     let done = fit::sweeps::fit_sweeps(&nominal, Some(&limit), &opts)?;
     Ok((done.params, done.summary))
@@ -689,6 +690,15 @@ pub fn summary_text(s: &SessionSummary, nominal: &[StepRecord], limit: &[StepRec
             t,
             "thrust limit: {l:.1} ± {u:.1} g per rotor{at} → m_L = {kg:.3} kg"
         );
+    }
+    match (&f.motor_map, &f.motor_map_skipped) {
+        (Some(m), _) => {
+            let _ = writeln!(t, "{}", m.line());
+        }
+        (None, Some(why)) => {
+            let _ = writeln!(t, "no motor map: {why}");
+        }
+        (None, None) => {}
     }
     for w in &f.warnings {
         let _ = writeln!(t, "warning: {w}");

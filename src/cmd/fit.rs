@@ -86,6 +86,12 @@ struct Report<'a> {
     coefficient_std_errors: Option<&'a [f64]>,
     warnings: Vec<String>,
     thrust_limit: Option<LimitJson>,
+    /// The motor map (power from ESC command and supply voltage), when both sweeps gave one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    motor_map: Option<fit::sweeps::MotorMapSummary>,
+    /// Why there is none (also said as a note).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    motor_map_skipped: Option<String>,
     written: Vec<String>,
 }
 
@@ -132,6 +138,7 @@ pub fn run(args: Args) -> Result<()> {
         rotors: args.rotors,
         tool: format!("hoverbench {}", env!("CARGO_PKG_VERSION")),
         created: humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string(),
+        motor_degree: fit::motor::DEFAULT_MOTOR_DEGREE,
     };
     let done = fit_sweeps(&data, limit.as_ref(), &opts)?;
     let (file, fitted) = (&done.params, &done.fit);
@@ -186,6 +193,8 @@ pub fn run(args: Args) -> Result<()> {
             supply_voltage_v: Some(l.supply_voltage_v),
             method: l.method.clone(),
         }),
+        motor_map: done.summary.motor_map.clone(),
+        motor_map_skipped: done.summary.motor_map_skipped.clone(),
         written,
     };
     if args.json {
@@ -289,6 +298,9 @@ fn print_human(rep: &Report<'_>) {
             l.supply_voltage_v.unwrap_or(f64::NAN),
             l.total_kg
         );
+    }
+    if let Some(m) = &rep.motor_map {
+        println!("{}", m.line());
     }
     for w in &rep.written {
         println!("wrote {w}");

@@ -47,7 +47,7 @@
 //! use estimator::{Params, PolyCurve};
 //!
 //! let curve = PolyCurve::new(&[10.0, 12.0, 3.0], 130.0, 130.0, (0.0, 260.0), Some(12.5))?;
-//! let params = Params { rotor_count: 4, curve, thrust_limit: None, battery: None, vehicle: None };
+//! let params = Params { rotor_count: 4, curve, thrust_limit: None, battery: None, vehicle: None, motor: None };
 //! let battery = BatteryModel::lipo(3, 2.2)?;
 //! let config = OnlineConfig {
 //!     vehicle: Some(Vehicle {

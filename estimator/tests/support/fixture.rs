@@ -29,5 +29,6 @@ pub fn params() -> Params {
             avionics_power_w: 2.44,
             payload_power_w: 0.0,
         }),
+        motor: None,
     }
 }
