@@ -252,6 +252,26 @@ pub fn families_and_seeds(args: &[String]) -> Result<(Vec<Family>, Range<u64>), 
     Ok((families, first..first + count))
 }
 
+/// The motor map a characterisation session fits from the robot's two rig sweeps with their ESC
+/// commands (`fit::motor`, as `hoverbench fit` does from `sweep.csv` and `limit.csv`).
+pub fn motor_map(sweeps: &flight_sim::RigSweeps) -> Result<estimator::MotorMap, EvalError> {
+    let points = |steps: &[flight_sim::RigStep], name: &str| fit::motor::MotorPoints {
+        throttle_us: steps.iter().map(|s| s.throttle_us).collect(),
+        voltage_v: steps.iter().map(|s| s.voltage_v).collect(),
+        power_w: steps.iter().map(|s| s.power_w).collect(),
+        thrust_g: steps.iter().map(|s| s.thrust_g).collect(),
+        supply_voltage_v: steps.first().map_or(f64::NAN, |s| s.voltage_v),
+        source_name: name.to_owned(),
+        command_range_us: Some((1000.0, 2000.0)),
+    };
+    let fitted = fit::motor::fit_motor_map(
+        &[points(&sweeps.nominal, "sweep"), points(&sweeps.limit, "limit")],
+        &fit::motor::MotorMapOptions::new(1000.0, 2000.0),
+    )
+    .map_err(|e| EvalError::Rig(format!("motor map: {e}")))?;
+    Ok(fitted.map)
+}
+
 /// The rig curve a user fits from the sweep (fifth order).
 pub fn rig_curve(thrust_g: &[f64], power_w: &[f64], volts: f64) -> Result<PolyCurve, EvalError> {
     let f = fit::fit_polynomial(thrust_g, power_w, 5).map_err(|e| EvalError::Rig(e.to_string()))?;
@@ -428,7 +448,7 @@ pub fn prepare_scenario_with(
         thrust_limit: None,
         battery: None,
         vehicle: None,
-        motor: None,
+        motor: Some(motor_map(&robot.rig_sweeps(10.0, seed))?),
     };
     let model = gap::model::Model {
         curve: &params.curve,
@@ -1153,6 +1173,7 @@ pub fn config_from_spec(spec: &str) -> Result<OnlineConfig, String> {
             "voltage_sigma_v" => &mut c.voltage_sigma_v,
             "current_sigma_a" => &mut c.current_sigma_a,
             "power_sigma_fraction" => &mut c.power_sigma_fraction,
+            "motor_power_sigma_fraction" => &mut c.motor_power_sigma_fraction,
             "initial_soc_sigma" => &mut c.initial_soc_sigma,
             "resistance_scale_sigma" => &mut c.resistance_scale_sigma,
             "capacity_scale_sigma" => &mut c.capacity_scale_sigma,

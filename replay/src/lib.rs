@@ -237,7 +237,7 @@ fn reading_of_unscored(
         if s.time_s[k] > end_s {
             break;
         }
-        let _ = online.update(&sample_at(flight, k));
+        let _ = online.update(&sample_at(flight, k, config.params.motor.as_ref()));
     }
     let final_state = online.final_state();
     take_reading(
@@ -250,17 +250,36 @@ fn reading_of_unscored(
     )
 }
 
-/// Sample `k` of `flight`, as the predictors take it.
-fn sample_at(flight: &Flight, k: usize) -> Sample {
+/// Sample `k` of `flight`, as the predictors take it; with the parameters' motor map and the
+/// log's motor commands, the rotors' power read through the map at the sample's voltage (none
+/// when a command drives its motor outside the map's measured range, as at idle).
+fn sample_at(flight: &Flight, k: usize, motor: Option<&estimator::MotorMap>) -> Sample {
     let s = &flight.samples;
     Sample {
         time_s: s.time_s[k],
         voltage_v: s.voltage_v[k],
         current_a: s.current_a.as_ref().map(|c| c[k]),
         phase: s.phase.as_ref().map(|p| p[k]),
-        motor_power_w: None,
+        motor_power_w: motor_power_w(flight, k, motor),
     }
 }
+
+/// The rotors' electrical power at sample `k` from the log's motor commands through `map`, W.
+fn motor_power_w(flight: &Flight, k: usize, map: Option<&estimator::MotorMap>) -> Option<f64> {
+    let (map, cols) = (map?, flight.samples.motor_us.as_ref()?);
+    let mut us = [0.0; MAX_MOTORS];
+    if cols.is_empty() || cols.len() > MAX_MOTORS {
+        return None;
+    }
+    for (u, c) in us.iter_mut().zip(cols) {
+        *u = *c.get(k)?;
+    }
+    map.total_power_w(&us[..cols.len()], flight.samples.voltage_v[k])
+        .ok()
+}
+
+/// The most motors whose commands a sample's power is read from (`flightlog` reads up to 16).
+const MAX_MOTORS: usize = 16;
 
 /// [`replay_flight`] with the packs' history: the online estimator flies the capacity the
 /// pack's last flight measured ([`history`]), and this flight's reading, or why it gives
@@ -334,7 +353,7 @@ pub fn replay_flight_with_history(
         if t > span.end_s {
             break;
         }
-        let preds = step(&mut online, &mut baselines, &sample_at(flight, k));
+        let preds = step(&mut online, &mut baselines, &sample_at(flight, k, config.params.motor.as_ref()));
         recorder.record(k, t, &preds);
         // The last sample at or before each checkpoint instant.
         let next_t = s.time_s.get(k + 1).copied().unwrap_or(f64::INFINITY);
@@ -501,7 +520,7 @@ fn trace_unscored(
         if t > landed_s {
             break;
         }
-        let preds = step(&mut online, &mut baselines, &sample_at(flight, k));
+        let preds = step(&mut online, &mut baselines, &sample_at(flight, k, config.params.motor.as_ref()));
         recorder.record(k, t, &preds);
         for (last, p) in at_landing.iter_mut().zip(preds) {
             if p.is_some() {
