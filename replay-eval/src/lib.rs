@@ -265,7 +265,10 @@ pub fn motor_map(sweeps: &flight_sim::RigSweeps) -> Result<estimator::MotorMap, 
         command_range_us: Some((1000.0, 2000.0)),
     };
     let fitted = fit::motor::fit_motor_map(
-        &[points(&sweeps.nominal, "sweep"), points(&sweeps.limit, "limit")],
+        &[
+            points(&sweeps.nominal, "sweep"),
+            points(&sweeps.limit, "limit"),
+        ],
         &fit::motor::MotorMapOptions::new(1000.0, 2000.0),
     )
     .map_err(|e| EvalError::Rig(format!("motor map: {e}")))?;

@@ -68,7 +68,7 @@ pub use cutoff::{CutoffEvidence, FlightSpan};
 pub use methods::{FlightSetup, METHODS, PlanLeg, Prediction, Predictor, Sample};
 pub use score::{
     Checkpoint, CheckpointSummary, Coverage, FRACTIONS, FlightReplay, FlightTrace, MethodSeries,
-    Replay, SkippedFlight, Summary,
+    PowerSource, Replay, SkippedFlight, Summary,
 };
 
 /// Most points a plotted series keeps.
@@ -353,7 +353,11 @@ pub fn replay_flight_with_history(
         if t > span.end_s {
             break;
         }
-        let preds = step(&mut online, &mut baselines, &sample_at(flight, k, config.params.motor.as_ref()));
+        let preds = step(
+            &mut online,
+            &mut baselines,
+            &sample_at(flight, k, config.params.motor.as_ref()),
+        );
         recorder.record(k, t, &preds);
         // The last sample at or before each checkpoint instant.
         let next_t = s.time_s.get(k + 1).copied().unwrap_or(f64::INFINITY);
@@ -404,7 +408,29 @@ pub fn replay_flight_with_history(
         series_time_s: recorder.time_s,
         series: recorder.series,
         final_state,
+        power_source: power_source(flight, config.params.motor.as_ref()),
     })
+}
+
+/// What measures the power of `flight` for the online estimator: its current, else its motor
+/// commands through `motor` when any flying sample reads through it.
+fn power_source(flight: &Flight, motor: Option<&estimator::MotorMap>) -> PowerSource {
+    let s = &flight.samples;
+    if s.current_a.is_some() {
+        return PowerSource::Current;
+    }
+    if s.motor_us.is_none() {
+        return PowerSource::Model { unmapped: false };
+    }
+    if motor.is_none() {
+        return PowerSource::Model { unmapped: true };
+    }
+    let flying = |k: usize| s.phase.as_ref().is_none_or(|p| p[k].is_flying());
+    if (0..s.len()).any(|k| flying(k) && motor_power_w(flight, k, motor).is_some()) {
+        PowerSource::MotorCommands
+    } else {
+        PowerSource::Model { unmapped: false }
+    }
 }
 
 /// The methods flown over one flight: the online estimator and the three baselines, and why
@@ -520,7 +546,11 @@ fn trace_unscored(
         if t > landed_s {
             break;
         }
-        let preds = step(&mut online, &mut baselines, &sample_at(flight, k, config.params.motor.as_ref()));
+        let preds = step(
+            &mut online,
+            &mut baselines,
+            &sample_at(flight, k, config.params.motor.as_ref()),
+        );
         recorder.record(k, t, &preds);
         for (last, p) in at_landing.iter_mut().zip(preds) {
             if p.is_some() {

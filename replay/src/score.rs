@@ -99,6 +99,43 @@ pub struct FlightReplay {
     /// With the packs' history: the flight whose reading this one flew with, and its factor
     /// on the model's capacity; `None` when there was none.
     pub capacity_carried: Option<(String, f64)>,
+    /// What measured the power the online estimator fused in flight.
+    pub power_source: PowerSource,
+}
+
+/// What measured the power a flight drew, for the online estimator.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PowerSource {
+    /// The logged current times the voltage.
+    Current,
+    /// The motors' ESC commands through the parameters' motor map (no current logged).
+    MotorCommands,
+    /// Nothing: no current, and no motor commands the parameters can read (the model's power,
+    /// taught by the voltage's fall). `unmapped`: the log has motor commands but the parameters
+    /// have no `[motor]` section.
+    Model {
+        /// The log has motor commands the parameters have no map for.
+        unmapped: bool,
+    },
+}
+
+impl PowerSource {
+    /// The line the text report gives a flight without a current, `None` with one.
+    pub fn text(self) -> Option<&'static str> {
+        match self {
+            PowerSource::Current => None,
+            PowerSource::MotorCommands => Some(
+                "power: no current logged; the rotors' power read from the motor commands through the [motor] map",
+            ),
+            PowerSource::Model { unmapped: false } => Some(
+                "power: no current and no motor commands logged; the model's power, taught by the voltage's fall",
+            ),
+            PowerSource::Model { unmapped: true } => Some(
+                "power: no current logged; the motor commands are, but the parameters have no [motor] map (fit a session with a limit sweep) - the model's power, taught by the voltage's fall",
+            ),
+        }
+    }
 }
 
 impl FlightReplay {
@@ -281,6 +318,7 @@ struct FlightJson<'a> {
     final_state: BTreeMap<&'static str, f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pack_history: Option<HistoryJson<'a>>,
+    power_source: PowerSource,
 }
 
 /// A skipped flight, with the capacity it measured (`--pack-history` only) and what the
@@ -422,6 +460,7 @@ impl Replay {
                     reading_factor: r.as_ref().ok().map(crate::history::CapacityReading::factor),
                     no_reading: r.as_ref().err().map(String::as_str),
                 }),
+                power_source: f.power_source,
             })
             .collect();
         serde_json::to_value(ReplayJson {
@@ -574,6 +613,9 @@ impl Replay {
             }
             for (m, r) in &f.unavailable {
                 let _ = writeln!(s, "  {m}: {r}");
+            }
+            if let Some(line) = f.power_source.text() {
+                let _ = writeln!(s, "  {line}");
             }
             if let Some((from, factor)) = &f.capacity_carried {
                 s += &carried_line(from, *factor);
