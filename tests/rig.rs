@@ -166,6 +166,48 @@ fn characterise_on_the_simulated_bench_lands_on_the_paper_optima() {
     assert_eq!(fit["log_kind"], "hoverbench sweep");
     let m_l = fit["thrust_limit"]["total_kg"].as_f64().unwrap();
     assert!((m_l - 0.600).abs() <= 0.005, "m_L {m_l}");
+    // The motor map: power from the ESC command and the supply voltage, from both sweeps, in
+    // params.toml, the blob, the summaries and `hoverbench fit --json`.
+    let file = estimator::file::ParamsFile::load(&params).unwrap();
+    let motor = file.motor.as_ref().expect("a [motor] section");
+    assert_eq!(motor.full_us, 2000.0);
+    // The simulated ESC drives from the rig's 1000 µs: the search finds it.
+    assert!(
+        (motor.zero_us - 1000.0).abs() < 10.0,
+        "zero_us {}",
+        motor.zero_us
+    );
+    assert_eq!(motor.sweeps.len(), 2);
+    for (sweep, volts) in motor.sweeps.iter().zip([12.5, 9.0]) {
+        assert!((sweep.supply_voltage_v - volts).abs() < 0.1, "{sweep:?}");
+        assert!(sweep.rmse_fraction < 0.02, "{sweep:?}");
+    }
+    let p = file.to_params().unwrap();
+    let map = p.motor.unwrap();
+    let mut blob = [0u8; estimator::params::MAX_BLOB_LEN];
+    let n = p.encode(&mut blob).unwrap();
+    assert_eq!(
+        estimator::Params::decode(&blob[..n]).unwrap().motor,
+        Some(map)
+    );
+    // The map's power at each limit step's command and voltage is the logged power.
+    for row in rows(&session.join("limit.csv")) {
+        let (us, thrust, volts, power): (f64, f64, f64, f64) = (
+            field(&row, 1).parse().unwrap(),
+            field(&row, 2).parse().unwrap(),
+            field(&row, 6).parse().unwrap(),
+            field(&row, 8).parse().unwrap(),
+        );
+        if thrust < 20.0 {
+            continue;
+        }
+        let p = map.power_w(us, volts).unwrap();
+        assert!((p / power - 1.0).abs() < 0.02, "{row}: map {p} W");
+    }
+    assert!(fit["motor_map"]["zero_us"].as_f64().is_some(), "{fit}");
+    let text = std::fs::read_to_string(session.join("summary.txt")).unwrap();
+    assert!(text.contains("motor map: power_w = p(duty × V)"), "{text}");
+    assert!(out.contains("motor map: "), "{out}");
     // Every nominal step hit its target within ±1 g, except the last at full throttle.
     let r = rows(&session.join("sweep.csv"));
     assert!(r.len() >= 26, "{} steps", r.len());

@@ -52,6 +52,9 @@ pub struct MotorMapOptions {
     /// The rig's lowest command, µs: the search for `zero_us` starts a quarter of the range
     /// below it.
     pub min_us: f64,
+    /// A known ESC zero, µs, instead of the search (then one sweep is enough: a map fitted at
+    /// one supply voltage, to be checked at another).
+    pub zero_us: Option<f64>,
 }
 
 impl MotorMapOptions {
@@ -61,6 +64,7 @@ impl MotorMapOptions {
             degree: DEFAULT_MOTOR_DEGREE,
             full_us,
             min_us,
+            zero_us: None,
         }
     }
 }
@@ -184,7 +188,7 @@ pub fn fit_motor_map(
     sweeps: &[MotorPoints],
     opts: &MotorMapOptions,
 ) -> Result<MotorMapFit, FitError> {
-    if sweeps.len() < 2 {
+    if sweeps.len() < 2 && opts.zero_us.is_none() {
         return Err(FitError::TooFewPoints {
             what: "a motor map (sweeps at different supply voltages)",
             needed: 2,
@@ -217,6 +221,16 @@ pub fn fit_motor_map(
             first_us,
             "the lowest fitted command leaves no room for the ESC's zero above the search's lower end",
         ));
+    }
+    if let Some(z) = opts.zero_us {
+        if !(z.is_finite() && z < first_us) {
+            return Err(invalid(
+                "zero_us",
+                z,
+                "a given ESC zero must be finite and below the lowest fitted command",
+            ));
+        }
+        return finish(sweeps, &p, z, opts, (z, z));
     }
     let objective = |z: f64| fit_at(&p, z, opts.full_us, opts.degree).map(|(_, r)| r);
     // Scan at 1 µs, then golden-section around the best scan point.
@@ -262,7 +276,18 @@ pub fn fit_motor_map(
         Ok(r) if r < best.0 => golden,
         _ => best.1,
     };
-    let (fit, rmse) = fit_at(&p, zero_us, opts.full_us, opts.degree)?;
+    finish(sweeps, &p, zero_us, opts, (lo, hi))
+}
+
+/// The map at `zero_us` and its residuals per sweep.
+fn finish(
+    sweeps: &[MotorPoints],
+    p: &Pooled,
+    zero_us: f64,
+    opts: &MotorMapOptions,
+    (lo, hi): (f64, f64),
+) -> Result<MotorMapFit, FitError> {
+    let (fit, rmse) = fit_at(p, zero_us, opts.full_us, opts.degree)?;
     let (x_lo, x_hi) = fit.domain();
     let map = estimator::MotorMap::new(
         zero_us,

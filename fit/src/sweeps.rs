@@ -680,6 +680,7 @@ fn motor_map(
         degree,
         full_us,
         min_us,
+        zero_us: None,
     };
     fit_motor_map(&[n.clone(), l.clone()], &opts).map_err(|e| format!("fitting it failed: {e}"))
 }

@@ -1,5 +1,6 @@
 //! The integration tests of `fit`, one module per file, in one test binary.
 
+mod motor_map;
 mod nist;
 mod properties;
 mod streaming;
