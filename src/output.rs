@@ -346,13 +346,20 @@ pub fn write_atomic_checked(path: &Path, bytes: &[u8], inputs: &[PathBuf]) -> Re
     Ok(outfile::write_atomic_checked(path, bytes, inputs)?)
 }
 
+/// What the replayed flights carried, beside the online estimator's configuration.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ReplayInputs {
+    /// Each pack's measured capacity carried to its next flight.
+    pub pack_history: bool,
+    /// Held-out flights replayed without their current column.
+    pub voltage_only: bool,
+    /// Held-out flights replayed without their motor commands.
+    pub without_motors: bool,
+}
+
 /// What the online estimator ran with, in words: the defaults, or the opt-ins and the band
 /// (`replay` and `replay-eval` print it first).
-pub fn online_settings_line(
-    c: &estimator::online::OnlineConfig,
-    pack_history: bool,
-    voltage_only: bool,
-) -> String {
+pub fn online_settings_line(c: &estimator::online::OnlineConfig, inputs: ReplayInputs) -> String {
     let mut on = Vec::new();
     if c.input_average_s > 0.0 {
         on.push(format!("samples averaged over {} s", c.input_average_s));
@@ -363,11 +370,14 @@ pub fn online_settings_line(
     if c.zero_current {
         on.push("the current sensor's zero read before take-off".to_owned());
     }
-    if pack_history {
+    if inputs.pack_history {
         on.push("the packs' history".to_owned());
     }
-    if voltage_only {
+    if inputs.voltage_only {
         on.push("held-out flights without their current".to_owned());
+    }
+    if inputs.without_motors {
+        on.push("the motor commands ignored".to_owned());
     }
     if on.is_empty() {
         "online estimator: the defaults".to_owned()
@@ -381,19 +391,20 @@ pub fn online_settings_line(
 }
 
 /// The same as JSON: `input_average_s`, `thrust_limit_end`, `zero_current`, `end_soc_sigma`,
-/// `pack_history`, `voltage_only`.
+/// `motor_power_sigma_fraction`, `pack_history`, `voltage_only`, `without_motors`.
 pub fn online_settings_json(
     c: &estimator::online::OnlineConfig,
-    pack_history: bool,
-    voltage_only: bool,
+    inputs: ReplayInputs,
 ) -> serde_json::Value {
     serde_json::json!({
         "input_average_s": c.input_average_s,
         "thrust_limit_end": c.thrust_limit_end,
         "zero_current": c.zero_current,
         "end_soc_sigma": c.end_soc_sigma,
-        "pack_history": pack_history,
-        "voltage_only": voltage_only,
+        "motor_power_sigma_fraction": c.motor_power_sigma_fraction,
+        "pack_history": inputs.pack_history,
+        "voltage_only": inputs.voltage_only,
+        "without_motors": inputs.without_motors,
     })
 }
 

@@ -529,6 +529,47 @@ fn replay_eval_zero_current_moves_only_logs_with_a_current() {
     assert_eq!(v["online"]["input_average_s"], 0.0);
 }
 
+/// `replay-eval --without-motors` (and `replay --without-motors`): the held-out flights lose
+/// their motor commands. A voltage-only log then takes the rotors' power from the model (its
+/// online errors move, and each flight's `power_source` says so); a log with its current does
+/// not move; the settings say so.
+#[test]
+fn replay_eval_without_motors_moves_only_logs_without_a_current() {
+    let vonly = "lipo/vonly-5hz/paper";
+    let (a, b) = (run_eval(vonly, &[]), run_eval(vonly, &["--without-motors"]));
+    assert!(!errors(&a, "online").is_empty());
+    assert_ne!(errors(&a, "online"), errors(&b, "online"));
+    assert_eq!(errors(&a, "static_model"), errors(&b, "static_model"));
+    let sources = |v: &Value| -> Vec<Value> {
+        v["scenarios"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .flat_map(|sc| sc["replay"]["flights"].as_array().unwrap())
+            .map(|f| f["power_source"].clone())
+            .collect()
+    };
+    assert!(
+        sources(&a).iter().all(|s| s == "motor_commands"),
+        "{:?}",
+        sources(&a)
+    );
+    assert!(
+        sources(&b).iter().all(|s| s["model"]["unmapped"] == false),
+        "{:?}",
+        sources(&b)
+    );
+    assert_eq!(b["online"]["without_motors"], true);
+    let fc = "lipo/fc-10hz/paper";
+    let (a, b) = (run_eval(fc, &[]), run_eval(fc, &["--without-motors"]));
+    assert_eq!(errors(&a, "online"), errors(&b, "online"));
+    let text = ok(&["replay", "--params", &params(), DATA, "--without-motors"]);
+    assert!(
+        text.starts_with("online estimator: the motor commands ignored;"),
+        "{text}"
+    );
+}
+
 /// `replay-eval` says what the online estimator ran with: a first line in the text, `online`
 /// in the JSON (the opt-ins and the band that goes with them).
 #[test]

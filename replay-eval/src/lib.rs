@@ -47,6 +47,7 @@
 //!     config: OnlineConfig::default().with_opt_ins(1.0, true),
 //!     pack_history: false,
 //!     voltage_only: false,
+//!     without_motors: false,
 //! };
 //! let result = study(&opts, &|| {});
 //! print!("{}", table(&result));
@@ -410,6 +411,18 @@ impl PreparedScenario {
         }
         self
     }
+
+    /// The same scenario with the held-out flights' motor commands removed: with
+    /// [`Self::without_current`], the rotors' power then comes from the model instead of from
+    /// the commands through the rig's motor map (an ablation, for telling what the commands are
+    /// worth).
+    #[must_use]
+    pub fn without_motors(mut self) -> Self {
+        for (f, _) in &mut self.flights {
+            f.samples.motor_us = None;
+        }
+        self
+    }
 }
 
 /// Flies a scenario's training and held-out flights and learns its packs (steps 1–3 of the
@@ -663,8 +676,9 @@ fn replay_scenario_by(
     }
 }
 
-/// A scenario prepared as `opts` asks: with `sensors`, and without its current column when
-/// [`StudyOptions::voltage_only`].
+/// A scenario prepared as `opts` asks: with `sensors`, without its current column when
+/// [`StudyOptions::voltage_only`], without its motor commands when
+/// [`StudyOptions::without_motors`].
 fn prepare_for(
     opts: &StudyOptions,
     family: &Family,
@@ -672,8 +686,13 @@ fn prepare_for(
     sensors: SensorErrors,
 ) -> Result<PreparedScenario, EvalError> {
     prepare_scenario_with(family, seed, sensors).map(|p| {
-        if opts.voltage_only {
+        let p = if opts.voltage_only {
             p.without_current()
+        } else {
+            p
+        };
+        if opts.without_motors {
+            p.without_motors()
         } else {
             p
         }
@@ -762,6 +781,10 @@ pub struct StudyOptions {
     /// a family that logs its current flown as a voltage-only log, an ablation for telling what
     /// the current is worth (and for studying voltage-only logs on the tuning families).
     pub voltage_only: bool,
+    /// Replay the held-out flights without their motor commands
+    /// ([`PreparedScenario::without_motors`]): an ablation for telling what the commands are
+    /// worth on voltage-only logs.
+    pub without_motors: bool,
 }
 
 /// A group of scenarios and its replay summary.

@@ -13,6 +13,7 @@ fn small(families: &str, seeds: std::ops::Range<u64>) -> replay_eval::Study {
             config: OnlineConfig::default(),
             pack_history: false,
             voltage_only: false,
+            without_motors: false,
         },
         &|| {},
     )
@@ -154,6 +155,7 @@ fn the_sensor_ablation_flies_the_same_worlds() {
         config: OnlineConfig::default(),
         pack_history: false,
         voltage_only: false,
+        without_motors: false,
     };
     let errors = |sensors| {
         let s = replay_eval::study_with(&opts, sensors, &|| {});
@@ -293,6 +295,51 @@ fn without_current_the_same_flights_are_replayed_from_their_voltage() {
                 .any(|(m, r)| *m == replay::methods::PX4 && r.contains("no current"))
         );
     }
+}
+
+/// The motor-command ablation: a voltage-only flight of a family whose flight controller logs
+/// its motor commands takes the rotors' power from them (through the motor map fitted on the
+/// world's rig sweeps); without them, from the model. The two replays differ, and a flight with
+/// its current keeps it.
+#[test]
+fn without_motors_a_voltage_only_flight_falls_back_on_the_model() {
+    use replay::PowerSource;
+    let fam = flight_sim::Family::parse("lipo/fc-10hz/paper").unwrap();
+    let p = replay_eval::prepare_scenario(&fam, 1).unwrap();
+    assert!(
+        p.params.motor.is_some(),
+        "the world's rig gives a motor map"
+    );
+    assert!(p.flights.iter().all(|(f, _)| f.samples.motor_us.is_some()));
+    let config = OnlineConfig::default();
+    let sources = |o: &replay_eval::ScenarioOutcome| -> Vec<PowerSource> {
+        o.flights.iter().map(|f| f.power_source).collect()
+    };
+    let with_current = replay_eval::replay_scenario(&p.clone().without_motors(), &config);
+    assert!(
+        sources(&with_current)
+            .iter()
+            .all(|s| *s == PowerSource::Current)
+    );
+    let motors = replay_eval::replay_scenario(&p.clone().without_current(), &config);
+    assert!(
+        sources(&motors)
+            .iter()
+            .all(|s| *s == PowerSource::MotorCommands)
+    );
+    let model = replay_eval::replay_scenario(&p.without_current().without_motors(), &config);
+    assert!(
+        sources(&model)
+            .iter()
+            .all(|s| *s == PowerSource::Model { unmapped: false })
+    );
+    let predicted = |o: &replay_eval::ScenarioOutcome| -> Vec<Option<f64>> {
+        o.flights
+            .iter()
+            .flat_map(|f| f.checkpoints.iter().map(|c| c.predicted_remaining_s))
+            .collect()
+    };
+    assert_ne!(predicted(&motors), predicted(&model));
 }
 
 /// The analysis lines (`sweep` with `SWEEP_TRUTH=1`) give each flight's pack as flight-sim flew

@@ -72,6 +72,11 @@ pub struct Args {
     /// by `battery_cycles`, then by name with numbers compared as numbers.
     #[arg(long)]
     pack_history: bool,
+    /// Ignore the flights' motor commands: a flight without a current then takes the rotors'
+    /// power from the model instead of from its commands through the parameters' `[motor]`
+    /// map (an ablation, for telling what the commands are worth on a voltage-only log)
+    #[arg(long)]
+    without_motors: bool,
 }
 
 /// Runs the subcommand.
@@ -80,7 +85,17 @@ pub fn run(args: Args) -> Result<()> {
     let params = file
         .to_params()
         .with_context(|| format!("{} cannot drive the estimator", args.params.display()))?;
-    let set = FlightSet::read_paths(&args.flights)?;
+    let mut set = FlightSet::read_paths(&args.flights)?;
+    if args.without_motors {
+        for f in &mut set.flights {
+            f.samples.motor_us = None;
+        }
+    }
+    let inputs = crate::output::ReplayInputs {
+        pack_history: args.pack_history,
+        voltage_only: false,
+        without_motors: args.without_motors,
+    };
     let unread: Vec<SkippedFlight> = set
         .skipped
         .iter()
@@ -132,8 +147,8 @@ pub fn run(args: Args) -> Result<()> {
     };
     let about = About {
         px4: &px4,
-        line: crate::output::online_settings_line(&settings, args.pack_history, false),
-        json: crate::output::online_settings_json(&settings, args.pack_history, false),
+        line: crate::output::online_settings_line(&settings, inputs),
+        json: crate::output::online_settings_json(&settings, inputs),
     };
     let bar = indicatif::ProgressBar::new(set.flights.len() as u64);
     bar.set_style(

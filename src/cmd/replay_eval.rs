@@ -38,6 +38,11 @@ pub struct Args {
     /// estimator and the baselines do with voltage-only logs of the same flights)
     #[arg(long)]
     voltage_only: bool,
+    /// Replay the held-out flights without their motor commands (an ablation: with
+    /// `--voltage-only`, the rotors' power then comes from the model instead of from the
+    /// commands through the rig's motor map)
+    #[arg(long)]
+    without_motors: bool,
     /// The online estimator averages the samples over windows of this many seconds, with the
     /// band sized for it, as `replay --input-average` does (0: off, the default)
     #[arg(long, value_name = "S", default_value_t = 0.0)]
@@ -73,6 +78,7 @@ pub fn run(args: Args) -> Result<()> {
         },
         pack_history: args.pack_history,
         voltage_only: args.voltage_only,
+        without_motors: args.without_motors,
     };
     let bar = indicatif::ProgressBar::new(args.scenarios);
     bar.set_style(
@@ -87,21 +93,23 @@ pub fn run(args: Args) -> Result<()> {
     let s = study(&opts, &|| bar.inc(1));
     bar.finish_and_clear();
     let c = &opts.config;
+    let inputs = crate::output::ReplayInputs {
+        pack_history: opts.pack_history,
+        voltage_only: opts.voltage_only,
+        without_motors: opts.without_motors,
+    };
     if args.json {
         let mut v = to_json(&s);
         if let Some(o) = v.as_object_mut() {
             // What the online estimator ran with, beside the numbers it gave.
             o.insert(
                 "online".to_owned(),
-                crate::output::online_settings_json(c, opts.pack_history, opts.voltage_only),
+                crate::output::online_settings_json(c, inputs),
             );
         }
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
-        println!(
-            "{}",
-            crate::output::online_settings_line(c, opts.pack_history, opts.voltage_only)
-        );
+        println!("{}", crate::output::online_settings_line(c, inputs));
         print!("{}", table(&s));
     }
     Ok(())
