@@ -353,8 +353,8 @@ pub struct ReplayInputs {
     pub pack_history: bool,
     /// Held-out flights replayed without their current column.
     pub voltage_only: bool,
-    /// Held-out flights replayed without their motor commands.
-    pub without_motors: bool,
+    /// The rotors' power read from the motor commands (`--motor-power`).
+    pub motor_power: bool,
 }
 
 /// What the online estimator ran with, in words: the defaults, or the opt-ins and the band
@@ -376,8 +376,8 @@ pub fn online_settings_line(c: &estimator::online::OnlineConfig, inputs: ReplayI
     if inputs.voltage_only {
         on.push("held-out flights without their current".to_owned());
     }
-    if inputs.without_motors {
-        on.push("the motor commands ignored".to_owned());
+    if inputs.motor_power {
+        on.push("the rotors' power from the motor commands".to_owned());
     }
     if on.is_empty() {
         "online estimator: the defaults".to_owned()
@@ -391,7 +391,7 @@ pub fn online_settings_line(c: &estimator::online::OnlineConfig, inputs: ReplayI
 }
 
 /// The same as JSON: `input_average_s`, `thrust_limit_end`, `zero_current`, `end_soc_sigma`,
-/// `motor_power_sigma_fraction`, `pack_history`, `voltage_only`, `without_motors`.
+/// `motor_power_sigma_fraction`, `pack_history`, `voltage_only`, `motor_power`.
 pub fn online_settings_json(
     c: &estimator::online::OnlineConfig,
     inputs: ReplayInputs,
@@ -404,7 +404,7 @@ pub fn online_settings_json(
         "motor_power_sigma_fraction": c.motor_power_sigma_fraction,
         "pack_history": inputs.pack_history,
         "voltage_only": inputs.voltage_only,
-        "without_motors": inputs.without_motors,
+        "motor_power": inputs.motor_power,
     })
 }
 

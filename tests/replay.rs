@@ -529,14 +529,15 @@ fn replay_eval_zero_current_moves_only_logs_with_a_current() {
     assert_eq!(v["online"]["input_average_s"], 0.0);
 }
 
-/// `replay-eval --without-motors` (and `replay --without-motors`): the held-out flights lose
-/// their motor commands. A voltage-only log then takes the rotors' power from the model (its
-/// online errors move, and each flight's `power_source` says so); a log with its current does
-/// not move; the settings say so.
+/// `replay-eval --motor-power` (and `replay --motor-power`): the online estimator gets the
+/// rotors' power read from the held-out flights' motor commands. A voltage-only log's online
+/// errors move, and each flight's `power_source` says what measured its power; the baselines
+/// never change; a 1 Hz lab log without commands does not move; the settings say so.
+/// `replay --motor-power` refuses parameters without a `[motor]` map.
 #[test]
-fn replay_eval_without_motors_moves_only_logs_without_a_current() {
+fn replay_eval_motor_power_moves_only_logs_with_motor_commands() {
     let vonly = "lipo/vonly-5hz/paper";
-    let (a, b) = (run_eval(vonly, &[]), run_eval(vonly, &["--without-motors"]));
+    let (a, b) = (run_eval(vonly, &[]), run_eval(vonly, &["--motor-power"]));
     assert!(!errors(&a, "online").is_empty());
     assert_ne!(errors(&a, "online"), errors(&b, "online"));
     assert_eq!(errors(&a, "static_model"), errors(&b, "static_model"));
@@ -549,24 +550,27 @@ fn replay_eval_without_motors_moves_only_logs_without_a_current() {
             .map(|f| f["power_source"].clone())
             .collect()
     };
+    let want = |commands: &str| serde_json::json!({"current": false, "commands": commands});
     assert!(
-        sources(&a).iter().all(|s| s == "motor_commands"),
+        sources(&a).iter().all(|s| *s == want("not_logged")),
         "{:?}",
         sources(&a)
     );
     assert!(
-        sources(&b).iter().all(|s| s["model"]["unmapped"] == false),
+        sources(&b).iter().all(|s| *s == want("used")),
         "{:?}",
         sources(&b)
     );
-    assert_eq!(b["online"]["without_motors"], true);
-    let fc = "lipo/fc-10hz/paper";
-    let (a, b) = (run_eval(fc, &[]), run_eval(fc, &["--without-motors"]));
+    assert_eq!(b["online"]["motor_power"], true);
+    let lab = "lipo/lab-1hz/paper";
+    let (a, b) = (run_eval(lab, &[]), run_eval(lab, &["--motor-power"]));
     assert_eq!(errors(&a, "online"), errors(&b, "online"));
-    let text = ok(&["replay", "--params", &params(), DATA, "--without-motors"]);
+    let out = run(&["replay", "--params", &params(), DATA, "--motor-power"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
     assert!(
-        text.starts_with("online estimator: the motor commands ignored;"),
-        "{text}"
+        err.contains("--motor-power needs the rig's motor map"),
+        "{err}"
     );
 }
 

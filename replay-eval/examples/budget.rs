@@ -31,7 +31,7 @@ fn main() {
         config: estimator::online::OnlineConfig::default(),
         pack_history: false,
         voltage_only: false,
-        without_motors: false,
+        motor_power: false,
     };
     let done = std::sync::atomic::AtomicUsize::new(0);
     let studies = replay_eval::study_oracles(&opts, &oracles, &|| {

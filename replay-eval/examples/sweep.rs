@@ -10,9 +10,9 @@
 //! calibrated sensors (no per-flight scale or offset error; noise kept): the sensor ablation.
 //! `SWEEP_ORACLE=curve,power` (or `all`, `all-but-start`, …) hands the estimator those pieces
 //! of each flight's truth (`replay_eval::oracle`); the `budget` example runs the whole budget.
-//! `SWEEP_DROP_CURRENT=1` replays the held-out flights without their current column,
-//! `SWEEP_DROP_MOTORS=1` without their motor commands (with both, the rotors' power of a
-//! voltage-only flight comes from the model).
+//! `SWEEP_DROP_CURRENT=1` replays the held-out flights without their current column;
+//! `SWEEP_MOTOR_POWER=1` gives the estimator the rotors' power read from their motor commands
+//! (`--motor-power`).
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
@@ -24,7 +24,7 @@ fn main() {
         config: config_from_env(),
         pack_history: std::env::var("SWEEP_HISTORY").is_ok_and(|v| v == "1"),
         voltage_only: std::env::var("SWEEP_DROP_CURRENT").is_ok_and(|v| v == "1"),
-        without_motors: std::env::var("SWEEP_DROP_MOTORS").is_ok_and(|v| v == "1"),
+        motor_power: std::env::var("SWEEP_MOTOR_POWER").is_ok_and(|v| v == "1"),
     };
     let sensors = std::env::var("SWEEP_SENSORS").map_or(flight_sim::SensorErrors::Drawn, |s| {
         flight_sim::SensorErrors::parse(&s).expect("drawn, ideal-voltage, ideal-current or ideal")

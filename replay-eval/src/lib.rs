@@ -47,7 +47,7 @@
 //!     config: OnlineConfig::default().with_opt_ins(1.0, true),
 //!     pack_history: false,
 //!     voltage_only: false,
-//!     without_motors: false,
+//!     motor_power: false,
 //! };
 //! let result = study(&opts, &|| {});
 //! print!("{}", table(&result));
@@ -412,10 +412,9 @@ impl PreparedScenario {
         self
     }
 
-    /// The same scenario with the held-out flights' motor commands removed: with
-    /// [`Self::without_current`], the rotors' power then comes from the model instead of from
-    /// the commands through the rig's motor map (an ablation, for telling what the commands are
-    /// worth).
+    /// The same scenario with the held-out flights' motor commands removed: the online
+    /// estimator then runs without the rotors' power read from them (as without
+    /// [`StudyOptions::motor_power`]).
     #[must_use]
     pub fn without_motors(mut self) -> Self {
         for (f, _) in &mut self.flights {
@@ -652,6 +651,9 @@ fn replay_scenario_by(
             online: Some(online.as_ref()),
             chemistry: Some(battery.chemistry),
             trace_unscored: false,
+            // the commands are there only when the study asks for them
+            // ([`StudyOptions::motor_power`])
+            motor_power: true,
         };
         let h = pack_history.then_some(&mut history);
         match replay::replay_flight_with_history(flight, &rc, h) {
@@ -677,8 +679,8 @@ fn replay_scenario_by(
 }
 
 /// A scenario prepared as `opts` asks: with `sensors`, without its current column when
-/// [`StudyOptions::voltage_only`], without its motor commands when
-/// [`StudyOptions::without_motors`].
+/// [`StudyOptions::voltage_only`], without its motor commands unless
+/// [`StudyOptions::motor_power`].
 fn prepare_for(
     opts: &StudyOptions,
     family: &Family,
@@ -691,10 +693,10 @@ fn prepare_for(
         } else {
             p
         };
-        if opts.without_motors {
-            p.without_motors()
-        } else {
+        if opts.motor_power {
             p
+        } else {
+            p.without_motors()
         }
     })
 }
@@ -781,10 +783,11 @@ pub struct StudyOptions {
     /// a family that logs its current flown as a voltage-only log, an ablation for telling what
     /// the current is worth (and for studying voltage-only logs on the tuning families).
     pub voltage_only: bool,
-    /// Replay the held-out flights without their motor commands
-    /// ([`PreparedScenario::without_motors`]): an ablation for telling what the commands are
-    /// worth on voltage-only logs.
-    pub without_motors: bool,
+    /// Give the online estimator the rotors' power read from the held-out flights' motor
+    /// commands (families whose logs carry them) through the motor map fitted on the world's
+    /// rig sweeps, as `replay --motor-power` does; without it the commands are removed
+    /// ([`PreparedScenario::without_motors`]).
+    pub motor_power: bool,
 }
 
 /// A group of scenarios and its replay summary.

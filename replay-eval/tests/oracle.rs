@@ -13,7 +13,7 @@ fn opts(families: &str, seeds: std::ops::Range<u64>) -> StudyOptions {
         config: OnlineConfig::default(),
         pack_history: false,
         voltage_only: false,
-        without_motors: false,
+        motor_power: false,
     }
 }
 
@@ -83,7 +83,7 @@ fn the_oracle_switches_are_inert_when_off() {
 fn the_oracles_replay_without_the_current_when_asked() {
     let o = StudyOptions {
         voltage_only: true,
-        without_motors: false,
+        motor_power: false,
         ..opts("nmc/fc-10hz/paper", 4..5)
     };
     let none = study_oracles(&o, &[Oracle::NONE], &|| {}).remove(0);
@@ -96,7 +96,7 @@ fn the_oracles_replay_without_the_current_when_asked() {
     let with_current = study_with(
         &StudyOptions {
             voltage_only: false,
-            without_motors: false,
+            motor_power: false,
             ..opts("nmc/fc-10hz/paper", 4..5)
         },
         SensorErrors::Drawn,

@@ -13,7 +13,7 @@ fn small(families: &str, seeds: std::ops::Range<u64>) -> replay_eval::Study {
             config: OnlineConfig::default(),
             pack_history: false,
             voltage_only: false,
-            without_motors: false,
+            motor_power: false,
         },
         &|| {},
     )
@@ -155,7 +155,7 @@ fn the_sensor_ablation_flies_the_same_worlds() {
         config: OnlineConfig::default(),
         pack_history: false,
         voltage_only: false,
-        without_motors: false,
+        motor_power: false,
     };
     let errors = |sensors| {
         let s = replay_eval::study_with(&opts, sensors, &|| {});
@@ -297,13 +297,13 @@ fn without_current_the_same_flights_are_replayed_from_their_voltage() {
     }
 }
 
-/// The motor-command ablation: a voltage-only flight of a family whose flight controller logs
-/// its motor commands takes the rotors' power from them (through the motor map fitted on the
-/// world's rig sweeps); without them, from the model. The two replays differ, and a flight with
-/// its current keeps it.
+/// The motor commands' power: a family whose flight controller logs its motor commands gets
+/// the rotors' power read from them (through the motor map fitted on the world's rig sweeps),
+/// beside the current or without it; without the commands (`StudyOptions::motor_power` off),
+/// none. The replays differ each time.
 #[test]
-fn without_motors_a_voltage_only_flight_falls_back_on_the_model() {
-    use replay::PowerSource;
+fn the_motor_commands_power_is_read_only_when_the_commands_are_kept() {
+    use replay::{Commands, PowerSource};
     let fam = flight_sim::Family::parse("lipo/fc-10hz/paper").unwrap();
     let p = replay_eval::prepare_scenario(&fam, 1).unwrap();
     assert!(
@@ -312,34 +312,25 @@ fn without_motors_a_voltage_only_flight_falls_back_on_the_model() {
     );
     assert!(p.flights.iter().all(|(f, _)| f.samples.motor_us.is_some()));
     let config = OnlineConfig::default();
-    let sources = |o: &replay_eval::ScenarioOutcome| -> Vec<PowerSource> {
-        o.flights.iter().map(|f| f.power_source).collect()
-    };
-    let with_current = replay_eval::replay_scenario(&p.clone().without_motors(), &config);
-    assert!(
-        sources(&with_current)
-            .iter()
-            .all(|s| *s == PowerSource::Current)
-    );
-    let motors = replay_eval::replay_scenario(&p.clone().without_current(), &config);
-    assert!(
-        sources(&motors)
-            .iter()
-            .all(|s| *s == PowerSource::MotorCommands)
-    );
-    let model = replay_eval::replay_scenario(&p.without_current().without_motors(), &config);
-    assert!(
-        sources(&model)
-            .iter()
-            .all(|s| *s == PowerSource::Model { unmapped: false })
-    );
-    let predicted = |o: &replay_eval::ScenarioOutcome| -> Vec<Option<f64>> {
+    let run = |p: &replay_eval::PreparedScenario, current: bool, commands: Commands| {
+        let o = replay_eval::replay_scenario(p, &config);
+        let want = PowerSource { current, commands };
+        assert!(o.flights.iter().all(|f| f.power_source == want), "{want:?}");
         o.flights
             .iter()
             .flat_map(|f| f.checkpoints.iter().map(|c| c.predicted_remaining_s))
-            .collect()
+            .collect::<Vec<Option<f64>>>()
     };
-    assert_ne!(predicted(&motors), predicted(&model));
+    let both = run(&p, true, Commands::Used);
+    let current = run(&p.clone().without_motors(), true, Commands::NotLogged);
+    assert_ne!(both, current);
+    let motors = run(&p.clone().without_current(), false, Commands::Used);
+    let model = run(
+        &p.without_current().without_motors(),
+        false,
+        Commands::NotLogged,
+    );
+    assert_ne!(motors, model);
 }
 
 /// The analysis lines (`sweep` with `SWEEP_TRUTH=1`) give each flight's pack as flight-sim flew

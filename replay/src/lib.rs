@@ -67,8 +67,8 @@ use flightlog::Flight;
 pub use cutoff::{CutoffEvidence, FlightSpan};
 pub use methods::{FlightSetup, METHODS, PlanLeg, Prediction, Predictor, Sample};
 pub use score::{
-    Checkpoint, CheckpointSummary, Coverage, FRACTIONS, FlightReplay, FlightTrace, MethodSeries,
-    PowerSource, Replay, SkippedFlight, Summary,
+    Checkpoint, CheckpointSummary, Commands, Coverage, FRACTIONS, FlightReplay, FlightTrace,
+    MethodSeries, PowerSource, Replay, SkippedFlight, Summary,
 };
 
 /// Most points a plotted series keeps.
@@ -111,9 +111,19 @@ pub struct ReplayConfig<'a> {
     /// Fly the methods also over flights that landed before the cut-off, for what they said
     /// ([`SkippedFlight::trace`]); they are still not scored.
     pub trace_unscored: bool,
+    /// Give the online estimator the rotors' power read from each sample's motor commands
+    /// through the parameters' `[motor]` map ([`Sample::motor_power_w`]), beside the current
+    /// when there is one (`hoverbench replay --motor-power`; off by default).
+    pub motor_power: bool,
 }
 
 impl ReplayConfig<'_> {
+    /// The motor map the samples' power is read through: the parameters' `[motor]` when
+    /// [`Self::motor_power`] asks for it.
+    fn motor_map(&self) -> Option<&estimator::MotorMap> {
+        self.params.motor.as_ref().filter(|_| self.motor_power)
+    }
+
     /// Only the baselines (no online estimator), PX4 with its defaults.
     pub fn baselines_only(params: Params) -> Self {
         Self {
@@ -121,6 +131,7 @@ impl ReplayConfig<'_> {
             online: None,
             chemistry: None,
             trace_unscored: false,
+            motor_power: false,
         }
     }
 
@@ -237,7 +248,7 @@ fn reading_of_unscored(
         if s.time_s[k] > end_s {
             break;
         }
-        let _ = online.update(&sample_at(flight, k, config.params.motor.as_ref()));
+        let _ = online.update(&sample_at(flight, k, config.motor_map()));
     }
     let final_state = online.final_state();
     take_reading(
@@ -356,7 +367,7 @@ pub fn replay_flight_with_history(
         let preds = step(
             &mut online,
             &mut baselines,
-            &sample_at(flight, k, config.params.motor.as_ref()),
+            &sample_at(flight, k, config.motor_map()),
         );
         recorder.record(k, t, &preds);
         // The last sample at or before each checkpoint instant.
@@ -408,28 +419,32 @@ pub fn replay_flight_with_history(
         series_time_s: recorder.time_s,
         series: recorder.series,
         final_state,
-        power_source: power_source(flight, config.params.motor.as_ref()),
+        power_source: power_source(flight, config),
     })
 }
 
-/// What measures the power of `flight` for the online estimator: its current, else its motor
-/// commands through `motor` when any flying sample reads through it.
-fn power_source(flight: &Flight, motor: Option<&estimator::MotorMap>) -> PowerSource {
+/// What measures the power of `flight` for the online estimator: its current, its motor
+/// commands through the `[motor]` map when `config` asks for them and any flying sample reads
+/// through it, both, or neither (the model's power).
+fn power_source(flight: &Flight, config: &ReplayConfig<'_>) -> PowerSource {
     let s = &flight.samples;
-    if s.current_a.is_some() {
-        return PowerSource::Current;
-    }
-    if s.motor_us.is_none() {
-        return PowerSource::Model { unmapped: false };
-    }
-    if motor.is_none() {
-        return PowerSource::Model { unmapped: true };
-    }
     let flying = |k: usize| s.phase.as_ref().is_none_or(|p| p[k].is_flying());
-    if (0..s.len()).any(|k| flying(k) && motor_power_w(flight, k, motor).is_some()) {
-        PowerSource::MotorCommands
+    let commands = if s.motor_us.is_none() {
+        Commands::NotLogged
+    } else if !config.motor_power {
+        Commands::NotAsked
+    } else if config.params.motor.is_none() {
+        Commands::NoMap
+    } else if (0..s.len())
+        .any(|k| flying(k) && motor_power_w(flight, k, config.motor_map()).is_some())
+    {
+        Commands::Used
     } else {
-        PowerSource::Model { unmapped: false }
+        Commands::OutOfRange
+    };
+    PowerSource {
+        current: s.current_a.is_some(),
+        commands,
     }
 }
 
@@ -549,7 +564,7 @@ fn trace_unscored(
         let preds = step(
             &mut online,
             &mut baselines,
-            &sample_at(flight, k, config.params.motor.as_ref()),
+            &sample_at(flight, k, config.motor_map()),
         );
         recorder.record(k, t, &preds);
         for (last, p) in at_landing.iter_mut().zip(preds) {

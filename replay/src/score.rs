@@ -105,36 +105,64 @@ pub struct FlightReplay {
 
 /// What measured the power a flight drew, for the online estimator.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum PowerSource {
+pub struct PowerSource {
     /// The logged current times the voltage.
-    Current,
-    /// The motors' ESC commands through the parameters' motor map (no current logged).
-    MotorCommands,
-    /// Nothing: no current, and no motor commands the parameters can read (the model's power,
-    /// taught by the voltage's fall). `unmapped`: the log has motor commands but the parameters
-    /// have no `[motor]` section.
-    Model {
-        /// The log has motor commands the parameters have no map for.
-        unmapped: bool,
-    },
+    pub current: bool,
+    /// The motors' ESC commands, and whether they measured it.
+    pub commands: Commands,
+}
+
+/// Whether a flight's motor commands measured its power ([`PowerSource::commands`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Commands {
+    /// Through the parameters' motor map.
+    Used,
+    /// The log has none.
+    NotLogged,
+    /// Logged, but not asked for (`--motor-power` off).
+    NotAsked,
+    /// Logged and asked for, but the parameters have no `[motor]` map.
+    NoMap,
+    /// Logged and asked for, but no flying sample drives the motors within the map's range.
+    OutOfRange,
 }
 
 impl PowerSource {
-    /// The line the text report gives a flight without a current, `None` with one.
+    /// The line the text report gives a flight, `None` for one whose current alone measured
+    /// its power with no motor commands logged.
     pub fn text(self) -> Option<&'static str> {
-        match self {
-            PowerSource::Current => None,
-            PowerSource::MotorCommands => Some(
-                "power: no current logged; the rotors' power read from the motor commands through the [motor] map",
-            ),
-            PowerSource::Model { unmapped: false } => Some(
-                "power: no current and no motor commands logged; the model's power, taught by the voltage's fall",
-            ),
-            PowerSource::Model { unmapped: true } => Some(
-                "power: no current logged; the motor commands are, but the parameters have no [motor] map (fit a session with a limit sweep) - the model's power, taught by the voltage's fall",
-            ),
-        }
+        let line = match (self.current, self.commands) {
+            (true, Commands::NotLogged) => return None,
+            (true, Commands::Used) => {
+                "power: the current's, and the rotors' read from the motor commands through the [motor] map"
+            }
+            (true, Commands::NotAsked) => {
+                "power: the current's (the motor commands are logged; --motor-power reads them too)"
+            }
+            (true, Commands::NoMap) => {
+                "power: the current's (the motor commands are logged, but the parameters have no [motor] map: fit a session with a limit sweep)"
+            }
+            (true, Commands::OutOfRange) => {
+                "power: the current's (no flying sample drives the motors within the [motor] map's range)"
+            }
+            (false, Commands::Used) => {
+                "power: no current logged; the rotors' power read from the motor commands through the [motor] map"
+            }
+            (false, Commands::NotLogged) => {
+                "power: no current and no motor commands logged; the model's power, taught by the voltage's fall"
+            }
+            (false, Commands::NotAsked) => {
+                "power: no current logged; the model's power, taught by the voltage's fall (the motor commands are logged: --motor-power reads them)"
+            }
+            (false, Commands::NoMap) => {
+                "power: no current logged; the motor commands are, but the parameters have no [motor] map (fit a session with a limit sweep) - the model's power, taught by the voltage's fall"
+            }
+            (false, Commands::OutOfRange) => {
+                "power: no current logged; no flying sample drives the motors within the [motor] map's range - the model's power, taught by the voltage's fall"
+            }
+        };
+        Some(line)
     }
 }
 

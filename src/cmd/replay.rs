@@ -72,11 +72,15 @@ pub struct Args {
     /// by `battery_cycles`, then by name with numbers compared as numbers.
     #[arg(long)]
     pack_history: bool,
-    /// Ignore the flights' motor commands: a flight without a current then takes the rotors'
-    /// power from the model instead of from its commands through the parameters' `[motor]`
-    /// map (an ablation, for telling what the commands are worth on a voltage-only log)
+    /// Give the online estimator the rotors' power read from each sample's motor commands
+    /// (the ESC outputs a flight controller logs: PX4 `actuator_outputs`, ArduPilot `RCOU`,
+    /// MAVLink `SERVO_OUTPUT_RAW`, CSV `motor1_us`…) through the parameters' `[motor]` map
+    /// (written by `fit --limit` and the characterise session from the two sweeps), beside the
+    /// current when one is logged. Off by default: on the simulated held-out sets it lowers the
+    /// median error at half the flight, most on voltage-only logs, but makes some flights worse
+    /// (docs/evidence/online-estimator.md, "The motor commands' power").
     #[arg(long)]
-    without_motors: bool,
+    motor_power: bool,
 }
 
 /// Runs the subcommand.
@@ -85,16 +89,11 @@ pub fn run(args: Args) -> Result<()> {
     let params = file
         .to_params()
         .with_context(|| format!("{} cannot drive the estimator", args.params.display()))?;
-    let mut set = FlightSet::read_paths(&args.flights)?;
-    if args.without_motors {
-        for f in &mut set.flights {
-            f.samples.motor_us = None;
-        }
-    }
+    let set = FlightSet::read_paths(&args.flights)?;
     let inputs = crate::output::ReplayInputs {
         pack_history: args.pack_history,
         voltage_only: false,
-        without_motors: args.without_motors,
+        motor_power: args.motor_power,
     };
     let unread: Vec<SkippedFlight> = set
         .skipped
@@ -113,6 +112,12 @@ pub fn run(args: Args) -> Result<()> {
     if args.thrust_limit_end && file.thrust_limit.is_none() {
         anyhow::bail!(
             "--thrust-limit-end needs the rotors' thrust limit: {} has no [thrust_limit] section (fit a limit sweep at the minimum battery voltage: `hoverbench fit SWEEP --limit LIMIT_SWEEP`)",
+            args.params.display()
+        );
+    }
+    if args.motor_power && file.motor.is_none() {
+        anyhow::bail!(
+            "--motor-power needs the rig's motor map: {} has no [motor] section (fit the nominal and the limit sweep, both with the ESC command logged: `hoverbench fit SWEEP --limit LIMIT_SWEEP`)",
             args.params.display()
         );
     }
@@ -138,6 +143,7 @@ pub fn run(args: Args) -> Result<()> {
         online: online.as_ref().ok().map(|o| o.as_ref()),
         chemistry,
         trace_unscored: true,
+        motor_power: args.motor_power,
     };
     let px4 = config.px4_battery();
     let settings = estimator::online::OnlineConfig {

@@ -38,11 +38,12 @@ pub struct Args {
     /// estimator and the baselines do with voltage-only logs of the same flights)
     #[arg(long)]
     voltage_only: bool,
-    /// Replay the held-out flights without their motor commands (an ablation: with
-    /// `--voltage-only`, the rotors' power then comes from the model instead of from the
-    /// commands through the rig's motor map)
+    /// Give the online estimator the rotors' power read from the held-out flights' motor
+    /// commands through the motor map fitted on each world's rig sweeps, as `replay
+    /// --motor-power` does (families whose logs carry the commands: fc-10hz, vonly-5hz,
+    /// bb-50hz)
     #[arg(long)]
-    without_motors: bool,
+    motor_power: bool,
     /// The online estimator averages the samples over windows of this many seconds, with the
     /// band sized for it, as `replay --input-average` does (0: off, the default)
     #[arg(long, value_name = "S", default_value_t = 0.0)]
@@ -78,7 +79,7 @@ pub fn run(args: Args) -> Result<()> {
         },
         pack_history: args.pack_history,
         voltage_only: args.voltage_only,
-        without_motors: args.without_motors,
+        motor_power: args.motor_power,
     };
     let bar = indicatif::ProgressBar::new(args.scenarios);
     bar.set_style(
@@ -96,7 +97,7 @@ pub fn run(args: Args) -> Result<()> {
     let inputs = crate::output::ReplayInputs {
         pack_history: opts.pack_history,
         voltage_only: opts.voltage_only,
-        without_motors: opts.without_motors,
+        motor_power: opts.motor_power,
     };
     if args.json {
         let mut v = to_json(&s);
