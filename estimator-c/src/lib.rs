@@ -61,7 +61,7 @@ pub extern "C" fn rust_eh_personality() {}
 use estimator::online::{
     Estimate, FilterState, FlightPhase, OnlineConfig, OnlineEstimator, Sample,
 };
-use estimator::{MissionOptions, Params, Segment};
+use estimator::{EstimateError, MissionOptions, MotorMap, Params, Segment};
 
 /// 64-bit words of [`HbOnlineState`]: room for the estimator ([`OnlineEstimator::STATE_SIZE_BYTES`]
 /// bytes on this target) and a tag.
@@ -94,6 +94,19 @@ pub const HB_ERR_OBSERVE: i32 = -8;
 /// An option of [`hb_online_init_with`] is out of range (an averaging window that is not a
 /// finite number of seconds, 0 or more).
 pub const HB_ERR_OPTION: i32 = -9;
+
+/// The blob has no motor-map block (flag bit 4: `hoverbench fit` writes one when both sweeps
+/// logged the ESC command and the power).
+pub const HB_ERR_NO_MOTOR_MAP: i32 = -10;
+/// An ESC command drives its motor below the motor map's measured drive range (`duty × V`
+/// under the lowest fitted step: idle on the ground, or a command under the ESC's zero).
+pub const HB_ERR_DRIVE_BELOW_RANGE: i32 = -11;
+/// An ESC command drives its motor above the motor map's measured drive range (`duty × V`
+/// over the highest fitted step: e.g. full throttle on a fuller pack than the rig's supply).
+pub const HB_ERR_DRIVE_ABOVE_RANGE: i32 = -12;
+/// A reading is not usable: an ESC command that is not a finite number, or a voltage that is
+/// not a finite number above 0.
+pub const HB_ERR_INPUT: i32 = -13;
 
 /// [`hb_online_observe`]'s states: the state of charge (0..1).
 pub const HB_STATE_SOC: u32 = 0;
@@ -371,8 +384,8 @@ pub unsafe extern "C" fn hb_online_update(
 }
 
 /// [`hb_online_update`] with the rotors' electrical power read from the motors' ESC commands
-/// through the rig's motor map (W, all rotors together; NaN when not known): used in hover
-/// when the current is NaN, as the current's power would be.
+/// through the rig's motor map ([`hb_motor_power_w`]; W, all rotors together; NaN when not
+/// known): used in hover when the current is NaN, as the current's power would be.
 /// # Safety
 /// `state` points to an `HbOnlineState` (or is null, which is `HB_ERR_NULL`).
 #[unsafe(no_mangle)]
@@ -541,6 +554,142 @@ pub unsafe extern "C" fn hb_online_zero_current(state: *mut HbOnlineState, enabl
 #[unsafe(no_mangle)]
 pub extern "C" fn hb_online_state_size() -> usize {
     core::mem::size_of::<HbOnlineState>()
+}
+
+/// 64-bit words of [`HbMotorMap`]: room for the map (`size_of::<MotorMap>()` bytes, 184 on
+/// 64-bit targets with `estimator::MAX_DEGREE` 12), a tag, and 8 words spare so that the map can
+/// grow a little without changing the C layout.
+pub const MOTOR_MAP_WORDS: usize = 32;
+/// Most motors [`hb_motor_power_w`] sums (an octocopter's 8, a coaxial octo's 16).
+pub const HB_MOTOR_MAP_MAX_MOTORS: u32 = 16;
+/// Tag of an initialised motor map.
+const MOTOR_MAP_TAG: u64 = 0x4842_4d4f_544f_524d; // "HBMOTORM"
+
+const _: () = assert!(core::mem::size_of::<MotorMap>() <= (MOTOR_MAP_WORDS - 1) * 8);
+const _: () = assert!(core::mem::align_of::<MotorMap>() <= 8);
+
+/// Caller-owned storage of the rig's motor map (per-rotor electrical power from the ESC
+/// command and the supply voltage, `estimator::MotorMap`), filled by [`hb_motor_map_init`]
+/// from the parameter blob.
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct HbMotorMap {
+    /// Opaque.
+    pub words: [u64; MOTOR_MAP_WORDS],
+}
+
+impl HbMotorMap {
+    /// An uninitialised (all-zero) map.
+    pub const ZEROED: Self = Self {
+        words: [0; MOTOR_MAP_WORDS],
+    };
+
+    fn map(&self) -> Option<&MotorMap> {
+        if self.words[0] != MOTOR_MAP_TAG {
+            return None;
+        }
+        // SAFETY: the tag is written only by `store` after it wrote a valid `MotorMap` at word
+        // 1 (8-byte aligned, size checked at compile time).
+        Some(unsafe { &*(self.words.as_ptr().add(1).cast::<MotorMap>()) })
+    }
+
+    fn store(&mut self, map: MotorMap) {
+        // SAFETY: word 1 onwards holds at least `size_of::<MotorMap>()` bytes, 8-byte aligned
+        // (compile-time checks above); `MotorMap` is `Copy` (no drop).
+        unsafe {
+            core::ptr::write(self.words.as_mut_ptr().add(1).cast::<MotorMap>(), map);
+        }
+        self.words[0] = MOTOR_MAP_TAG;
+    }
+}
+
+/// Initialises `map` from the motor-map block of a parameter blob (`hoverbench fit --blob`
+/// writes one when both sweeps logged the ESC command and the power). Returns `HB_OK`,
+/// `HB_ERR_NULL`, `HB_ERR_BLOB` (not a valid parameter blob) or `HB_ERR_NO_MOTOR_MAP` (a valid
+/// blob without a motor map); on an error a non-null `map` is left uninitialised.
+/// # Safety
+/// `blob` points to `len` readable bytes and `map` to a writable `HbMotorMap` (or either is
+/// null, which is `HB_ERR_NULL`).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn hb_motor_map_init(
+    blob: *const u8,
+    len: usize,
+    map: *mut HbMotorMap,
+) -> i32 {
+    if map.is_null() {
+        return HB_ERR_NULL;
+    }
+    // SAFETY: the caller passes a valid, writable `hb_motor_map`.
+    let map = unsafe { &mut *map };
+    map.words[0] = 0;
+    if blob.is_null() {
+        return HB_ERR_NULL;
+    }
+    // SAFETY: the caller passes `len` readable bytes at `blob` (header contract).
+    let bytes = unsafe { core::slice::from_raw_parts(blob, len) };
+    let Ok(params) = Params::decode(bytes) else {
+        return HB_ERR_BLOB;
+    };
+    let Some(motor) = params.motor else {
+        return HB_ERR_NO_MOTOR_MAP;
+    };
+    map.store(motor);
+    HB_OK
+}
+
+/// The total electrical power of `motors` rotors, W, from their ESC commands `command_us[0..motors]`
+/// (PWM µs) on a supply of `voltage_v` (the pack's voltage under load), written to `power_w`:
+/// `estimator::MotorMap::total_power_w`, the sum of each rotor's power at its drive voltage
+/// `duty × voltage_v`. Returns `HB_OK`, or a negative `HB_ERR_*` with `power_w` untouched:
+/// `HB_ERR_NULL`, `HB_ERR_NOT_INITIALISED` (the map was not initialised by
+/// [`hb_motor_map_init`]), `HB_ERR_OPTION` (`motors` 0 or above
+/// `HB_MOTOR_MAP_MAX_MOTORS`), `HB_ERR_INPUT` (a command or the voltage not a finite number, or
+/// the voltage not above 0), `HB_ERR_DRIVE_BELOW_RANGE` or `HB_ERR_DRIVE_ABOVE_RANGE` (a
+/// command drives its motor outside the range the sweeps measured: the map never extrapolates;
+/// below is expected at idle on the ground). The first rotor that fails gives the code. The
+/// result feeds `hb_online_update_motors`'s `motor_power_w_or_nan` (NAN on an error).
+/// # Safety
+/// `map` points to an `HbMotorMap`, `command_us` to `motors` readable doubles and `power_w` to
+/// a writable double (or any is null, which is `HB_ERR_NULL`).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn hb_motor_power_w(
+    map: *const HbMotorMap,
+    command_us: *const f64,
+    motors: u32,
+    voltage_v: f64,
+    power_w: *mut f64,
+) -> i32 {
+    if map.is_null() || command_us.is_null() || power_w.is_null() {
+        return HB_ERR_NULL;
+    }
+    // SAFETY: the caller passes a valid `hb_motor_map`.
+    let Some(map) = (unsafe { &*map }).map() else {
+        return HB_ERR_NOT_INITIALISED;
+    };
+    if motors == 0 || motors > HB_MOTOR_MAP_MAX_MOTORS {
+        return HB_ERR_OPTION;
+    }
+    // SAFETY: the caller passes `motors` readable doubles at `command_us`; `motors` ≤ 16
+    // always fits `usize`.
+    let commands = unsafe { core::slice::from_raw_parts(command_us, motors as usize) };
+    match map.total_power_w(commands, voltage_v) {
+        Ok(w) => {
+            // SAFETY: the caller passes a valid, writable double.
+            unsafe { *power_w = w };
+            HB_OK
+        }
+        Err(EstimateError::DriveBelowRange { .. }) => HB_ERR_DRIVE_BELOW_RANGE,
+        Err(EstimateError::DriveAboveRange { .. }) => HB_ERR_DRIVE_ABOVE_RANGE,
+        // `NonFinite` or `NotPositive` (the only other errors of `MotorMap::power_w`; an empty
+        // slice, `NoRotors`, is excluded above).
+        Err(_) => HB_ERR_INPUT,
+    }
+}
+
+/// Bytes of [`HbMotorMap`].
+#[unsafe(no_mangle)]
+pub extern "C" fn hb_motor_map_size() -> usize {
+    core::mem::size_of::<HbMotorMap>()
 }
 
 #[cfg(feature = "std")]
