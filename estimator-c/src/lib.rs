@@ -5,30 +5,62 @@
 //!
 //! Main items: [`hb_online_init`] (from the parameter blob `hoverbench fit --blob` writes, with
 //! its battery and vehicle blocks; [`hb_online_init_with`] with the averaging window and the
-//! thrust-limit end), [`hb_online_update`] (one sample), [`hb_online_read`] (the
-//! estimate as [`HbOnlineEstimate`]), [`hb_online_set_plan`], [`hb_online_observe`] (an
-//! outside reading of one state, e.g. a pack's measured capacity). The caller owns the state: an
+//! thrust-limit end), [`hb_online_update`] (one sample; [`hb_online_update_motors`] with the
+//! rotors' power for a flight that logs no current), [`hb_online_read`] (the estimate as
+//! [`HbOnlineEstimate`]), [`hb_online_set_plan`], [`hb_online_observe`] (an outside reading of
+//! one state, e.g. a pack's measured capacity). The caller owns the state: an
 //! [`HbOnlineState`] of [`STATE_WORDS`] 64-bit words, static or on the stack; nothing is
 //! allocated.
 //!
+//! The rotors' power from the motors' ESC commands: [`hb_motor_map_init`] reads the blob's
+//! motor map (`estimator::MotorMap`, fitted by `hoverbench fit` from the rig's two sweeps)
+//! into a caller-owned [`HbMotorMap`] of [`MOTOR_MAP_WORDS`] words, and [`hb_motor_power_w`]
+//! gives the total electrical power of up to [`HB_MOTOR_MAP_MAX_MOTORS`] rotors from their
+//! commands (µs) and the pack's voltage, `MotorMap::total_power_w`: the value
+//! [`hb_online_update_motors`] takes. A command that drives its motor outside the range the
+//! sweeps measured is an error code (below: [`HB_ERR_DRIVE_BELOW_RANGE`], expected at idle on
+//! the ground; above: [`HB_ERR_DRIVE_ABOVE_RANGE`]), never an extrapolation; pass NaN then.
+//!
 //! ```
-//! use hoverbench_online::{HbOnlineEstimate, HbOnlineState, hb_online_init, hb_online_read, hb_online_update};
+//! use hoverbench_online::{
+//!     HB_ERR_DRIVE_BELOW_RANGE, HB_OK, HbMotorMap, HbOnlineEstimate, HbOnlineState,
+//!     hb_motor_map_init, hb_motor_power_w, hb_online_init, hb_online_read, hb_online_update,
+//!     hb_online_update_motors,
+//! };
 //! # use estimator::online::{BatteryModel, Vehicle};
 //! # let curve = estimator::PolyCurve::new(&[22.36, 29.12, 6.76], 130.0, 130.0, (0.0, 260.0), None).unwrap();
+//! # // P(x) = 10 W + 12 W·t + 4 W·t², t = (x − 6 V) / 5 V, measured from 1 V to 11 V of drive.
+//! # let motor = estimator::MotorMap::new(1000.0, 2000.0, &[10.0, 12.0, 4.0], 6.0, 5.0, (1.0, 11.0), 0.01).unwrap();
 //! # let params = estimator::Params { rotor_count: 4, curve, thrust_limit: None,
 //! #     battery: Some(BatteryModel::lipo(3, 2.1).unwrap()),
 //! #     vehicle: Some(Vehicle { structure_mass_kg: 0.431, battery_mass_kg: 0.144, payload_mass_kg: 0.0, avionics_power_w: 2.44, payload_power_w: 0.0 }),
-//! #     motor: None };
+//! #     motor: Some(motor) };
 //! # let mut blob = [0u8; estimator::params::MAX_BLOB_LEN];
 //! # let len = params.encode(&mut blob).unwrap();
 //! let mut state = HbOnlineState::ZEROED;
+//! let mut map = HbMotorMap::ZEROED;
 //! let mut out = HbOnlineEstimate::default();
-//! // SAFETY: valid pointers to a blob of `len` bytes, a state and an estimate.
+//! let mut rotors_w = f64::NAN;
+//! // SAFETY: valid pointers to a blob of `len` bytes, a state, a map, four commands, a power
+//! // and an estimate.
 //! unsafe {
-//!     assert_eq!(hb_online_init(blob.as_ptr(), len, &mut state), 0);
+//!     assert_eq!(hb_online_init(blob.as_ptr(), len, &mut state), HB_OK);
+//!     assert_eq!(hb_motor_map_init(blob.as_ptr(), len, &mut map), HB_OK);
 //!     assert!(hb_online_update(&mut state, 0.0, 12.4, f64::NAN, 2) >= 0);
-//!     assert_eq!(hb_online_read(&state, &mut out), 0);
+//!     // Hovering, no current sensor: the four ESC commands give the rotors' power.
+//!     let command_us = [1600.0, 1575.0, 1625.0, 1600.0];
+//!     assert_eq!(hb_motor_power_w(&map, command_us.as_ptr(), 4, 12.0, &mut rotors_w), HB_OK);
+//!     assert!(hb_online_update_motors(&mut state, 0.2, 12.0, f64::NAN, 2, rotors_w) >= 0);
+//!     // Idle on the ground is below the map's range: an error code, the power untouched.
+//!     let idle_us = [1080.0; 4];
+//!     let mut idle_w = f64::NAN;
+//!     assert_eq!(hb_motor_power_w(&map, idle_us.as_ptr(), 4, 12.0, &mut idle_w), HB_ERR_DRIVE_BELOW_RANGE);
+//!     assert!(idle_w.is_nan());
+//!     assert_eq!(hb_online_read(&state, &mut out), HB_OK);
 //! }
+//! // On 12 V the commands drive 7.2, 6.9, 7.5 and 7.2 V (duty × V, the ESC driving from 1000
+//! // to 2000 µs): t = 0.24, 0.18, 0.30, 0.24, so 4 × 10 W + 12 W × 0.96 + 4 W × 0.2376.
+//! assert!((rotors_w - 52.4704).abs() < 1e-9);
 //! assert!(out.remaining_phase_s > 0.0);
 //! ```
 //!
