@@ -99,6 +99,129 @@ fn c_header_compiles_and_agrees_with_the_estimator() {
     );
 }
 
+/// With a `[motor]` section (`hoverbench fit` of the real 3S RCbenchmark pair: the same motor
+/// and propeller minutes apart, the second run's pack 0.3 V lower), the header carries the motor
+/// map: its constants and evaluators give the map's power (C against Rust every 10 µs on two
+/// pack voltages, the range check included), and its blob holds the map (read back from the C
+/// program's bytes), as `hb_motor_map_init` of `libhoverbench_online.a` needs it.
+#[test]
+fn c_header_carries_the_motor_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let params = dir.path().join("params.toml");
+    ok(&[
+        "fit",
+        &shared("rcbenchmark/StepsTest_2020-06-16_220340.csv"),
+        "--limit",
+        &shared("rcbenchmark/StepsTest_2020-06-16_220513.csv"),
+        "-o",
+        params.to_str().unwrap(),
+    ]);
+    let p = estimator::file::ParamsFile::load(&params)
+        .unwrap()
+        .to_params()
+        .unwrap();
+    let map = p.motor.expect("a [motor] section from the two runs");
+    let header = dir.path().join("hoverbench_params.h");
+    ok(&[
+        "export",
+        "c-header",
+        params.to_str().unwrap(),
+        "-o",
+        header.to_str().unwrap(),
+    ]);
+    let main_c = dir.path().join("main.c");
+    std::fs::write(
+        &main_c,
+        r#"#include <stdio.h>
+#include "hoverbench_params.h"
+int main(void) {
+    const double supply_v[2] = {11.4, 11.7};
+    unsigned i;
+    int k, us;
+    for (k = 0; k < 2; ++k) {
+        for (us = 1000; us <= 2000; us += 10) {
+            double x = hb_motor_drive_v(us, supply_v[k]);
+            int in_range = x >= HB_MOTOR_DRIVE_MIN_V && x <= HB_MOTOR_DRIVE_MAX_V;
+            printf("%d %.17g %d %.17g\n", us, supply_v[k], in_range, hb_motor_power_at_drive_w(x));
+        }
+    }
+    printf("blob");
+    for (i = 0; i < sizeof HB_PARAMS_BLOB; ++i) printf(" %u", (unsigned)HB_PARAMS_BLOB[i]);
+    printf("\n");
+    return 0;
+}
+"#,
+    )
+    .unwrap();
+    let exe = dir.path().join("check");
+    let cc = Process::new("cc")
+        .args(["-std=c99", "-Wall", "-Wextra", "-Werror", "-o"])
+        .arg(&exe)
+        .arg(&main_c)
+        .output()
+        .expect("a C compiler (cc) on PATH");
+    assert!(
+        cc.status.success(),
+        "{}",
+        String::from_utf8_lossy(&cc.stderr)
+    );
+    let out = String::from_utf8(Process::new(&exe).output().unwrap().stdout).unwrap();
+    let (mut inside, mut outside) = (0, 0);
+    for line in out.lines().filter(|l| !l.starts_with("blob")) {
+        let f: Vec<f64> = line
+            .split_whitespace()
+            .map(|v| v.parse().unwrap())
+            .collect();
+        let (us, volts, in_range, c_power_w) = (f[0], f[1], f[2] == 1.0, f[3]);
+        match map.power_w(us, volts) {
+            Ok(w) => {
+                assert!(in_range, "{us} µs on {volts} V: C says outside, Rust {w} W");
+                assert!(
+                    (c_power_w - w).abs() <= 1e-12 * w,
+                    "{us} µs on {volts} V: C {c_power_w} W vs Rust {w} W"
+                );
+                inside += 1;
+            }
+            Err(e) => {
+                assert!(!in_range, "{us} µs on {volts} V: C says inside, Rust {e}");
+                outside += 1;
+            }
+        }
+    }
+    // The runs' steps span most of the command range; idle and the first steps are below it.
+    assert!(
+        inside > 100 && outside > 0,
+        "{inside} inside, {outside} outside"
+    );
+    let bytes: Vec<u8> = out
+        .lines()
+        .find_map(|l| l.strip_prefix("blob "))
+        .unwrap()
+        .split(' ')
+        .map(|v| v.parse().unwrap())
+        .collect();
+    assert_eq!(estimator::Params::decode(&bytes).unwrap().motor, Some(map));
+    // The motor block's layout, for review; the fitted values (the searched zero, the scaling,
+    // the range, the residual and the coefficients) are masked, checked numerically above.
+    let text = std::fs::read_to_string(&header).unwrap();
+    let start = text.find("/* Motor map").expect("a motor block");
+    let end = text.find("static const uint8_t HB_PARAMS_BLOB").unwrap();
+    let masked: String = text[start..end]
+        .lines()
+        .map(|l| match l.split_whitespace().collect::<Vec<_>>()[..] {
+            ["#define", name, _] if name != "HB_MOTOR_FULL_US" && name != "HB_MOTOR_DEGREE" => {
+                format!("#define {name} <fitted>")
+            }
+            _ if l.starts_with("static const double HB_MOTOR_COEFFS_SCALED") => {
+                "static const double HB_MOTOR_COEFFS_SCALED[6] = { <fitted> };".to_owned()
+            }
+            _ => l.to_owned(),
+        })
+        .collect::<Vec<_>>()
+        .join("\n");
+    insta::assert_snapshot!("c_header_motor_map", masked);
+}
+
 #[test]
 fn export_without_throttle_says_so() {
     let out = run(&[

@@ -696,7 +696,8 @@ impl ArduPilotParams {
 }
 
 /// The estimator's parameters as a C header: the binary blob (decoded by the Rust estimator) and
-/// the curve as plain constants with a Horner evaluator for C flight code.
+/// the curve as plain constants with a Horner evaluator for C flight code; with a motor map
+/// (`[motor]`), its constants too (`HB_MOTOR_*`), with the drive voltage and the power at it.
 pub fn c_header(params: &estimator::Params, blob: &[u8], guard: &str) -> String {
     let c = &params.curve;
     let (lo, hi) = estimator::PowerCurve::valid_range_g(c);
@@ -760,9 +761,17 @@ pub fn c_header(params: &estimator::Params, blob: &[u8], guard: &str) -> String 
         "    for (int k = HB_CURVE_DEGREE; k >= 0; --k) p = p * t + HB_CURVE_COEFFS_SCALED[k];"
     );
     let _ = writeln!(s, "    return p;\n}}\n");
+    if let Some(m) = &params.motor {
+        motor_map_c(&mut s, m);
+    }
     let _ = writeln!(
         s,
-        "/* The same parameters as the blob estimator::Params::decode reads. */"
+        "/* The same parameters as the blob estimator::Params::decode reads{}. */",
+        if params.motor.is_some() {
+            " (the motor map included:\n * hb_motor_map_init of libhoverbench_online.a reads it)"
+        } else {
+            ""
+        }
     );
     let _ = write!(
         s,
@@ -779,10 +788,158 @@ pub fn c_header(params: &estimator::Params, blob: &[u8], guard: &str) -> String 
     s
 }
 
+/// The motor map's part of [`c_header`]: its constants and two evaluators, named so as not to
+/// clash with `hoverbench_online.h` (whose `hb_motor_power_w` sums the rotors with range
+/// checks).
+fn motor_map_c(s: &mut String, m: &estimator::MotorMap) {
+    let (lo, hi) = m.drive_range_v();
+    let _ = writeln!(
+        s,
+        "/* Motor map: per-rotor electrical power (W) from the ESC command (us) and the supply voltage (V)."
+    );
+    let _ = writeln!(
+        s,
+        " * duty = (command_us - HB_MOTOR_ZERO_US) / (HB_MOTOR_FULL_US - HB_MOTOR_ZERO_US) clamped to 0..1,"
+    );
+    let _ = writeln!(
+        s,
+        " * drive_v = duty * supply_v; power_w = sum_k HB_MOTOR_COEFFS_SCALED[k] * t^k,"
+    );
+    let _ = writeln!(
+        s,
+        " * t = (drive_v - HB_MOTOR_CENTER_V) / HB_MOTOR_SCALE_V, valid for"
+    );
+    let _ = writeln!(
+        s,
+        " * HB_MOTOR_DRIVE_MIN_V <= drive_v <= HB_MOTOR_DRIVE_MAX_V (outside: not measured, do not use)."
+    );
+    let _ = writeln!(
+        s,
+        " * HB_MOTOR_FIT_RMSE_FRACTION: the fit's relative RMS residual over both sweeps. */"
+    );
+    let _ = writeln!(s, "#define HB_MOTOR_ZERO_US {:e}", m.zero_us());
+    let _ = writeln!(s, "#define HB_MOTOR_FULL_US {:e}", m.full_us());
+    let _ = writeln!(s, "#define HB_MOTOR_DEGREE {}", m.degree());
+    let _ = writeln!(s, "#define HB_MOTOR_CENTER_V {:e}", m.center_v());
+    let _ = writeln!(s, "#define HB_MOTOR_SCALE_V {:e}", m.scale_v());
+    let _ = writeln!(s, "#define HB_MOTOR_DRIVE_MIN_V {lo:e}");
+    let _ = writeln!(s, "#define HB_MOTOR_DRIVE_MAX_V {hi:e}");
+    let _ = writeln!(
+        s,
+        "#define HB_MOTOR_FIT_RMSE_FRACTION {:e}",
+        m.fit_rmse_fraction()
+    );
+    let coeffs: Vec<String> = m
+        .coefficients_scaled()
+        .iter()
+        .map(|v| format!("{v:e}"))
+        .collect();
+    let _ = writeln!(
+        s,
+        "\nstatic const double HB_MOTOR_COEFFS_SCALED[{}] = {{ {} }};\n",
+        coeffs.len(),
+        coeffs.join(", ")
+    );
+    let _ = writeln!(
+        s,
+        "/* Drive voltage of a motor at command_us on a supply of supply_v, V (duty clamped to 0..1). */"
+    );
+    let _ = writeln!(
+        s,
+        "static inline double hb_motor_drive_v(double command_us, double supply_v) {{"
+    );
+    let _ = writeln!(
+        s,
+        "    double duty = (command_us - HB_MOTOR_ZERO_US) / (HB_MOTOR_FULL_US - HB_MOTOR_ZERO_US);"
+    );
+    let _ = writeln!(
+        s,
+        "    duty = duty < 0.0 ? 0.0 : (duty > 1.0 ? 1.0 : duty);"
+    );
+    let _ = writeln!(s, "    return duty * supply_v;\n}}\n");
+    let _ = writeln!(
+        s,
+        "/* Electrical power of one rotor at drive voltage drive_v, W (no range check). */"
+    );
+    let _ = writeln!(
+        s,
+        "static inline double hb_motor_power_at_drive_w(double drive_v) {{"
+    );
+    let _ = writeln!(
+        s,
+        "    double t = (drive_v - HB_MOTOR_CENTER_V) / HB_MOTOR_SCALE_V;"
+    );
+    let _ = writeln!(s, "    double p = 0.0;");
+    let _ = writeln!(
+        s,
+        "    for (int k = HB_MOTOR_DEGREE; k >= 0; --k) p = p * t + HB_MOTOR_COEFFS_SCALED[k];"
+    );
+    let _ = writeln!(s, "    return p;\n}}\n");
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    /// The motor map's constants read back to the map's values bit for bit (shortest
+    /// round-trip digits), and a file without `[motor]` gets no motor block.
+    #[test]
+    fn the_c_header_carries_the_motor_map_exactly() {
+        let curve =
+            estimator::PolyCurve::new(&[22.36, 29.12, 6.76], 130.0, 130.0, (0.0, 260.0), None)
+                .unwrap();
+        let mut p = estimator::Params {
+            rotor_count: 4,
+            curve,
+            thrust_limit: None,
+            battery: None,
+            vehicle: None,
+            motor: None,
+        };
+        let without = c_header(&p, &[1, 2, 3], "G_H");
+        assert!(!without.contains("HB_MOTOR"), "{without}");
+        let map = estimator::MotorMap::new(
+            1003.7,
+            2000.0,
+            &[0.1 + 0.2, 1.0 / 3.0, 2e-17, -4.25],
+            6.2,
+            5.1,
+            (1.1, 11.3),
+            0.012,
+        )
+        .unwrap();
+        p.motor = Some(map);
+        let text = c_header(&p, &[1, 2, 3], "G_H");
+        let define = |name: &str| -> f64 {
+            text.lines()
+                .find_map(|l| l.strip_prefix(&format!("#define {name} ")))
+                .unwrap_or_else(|| panic!("{name} in\n{text}"))
+                .parse()
+                .unwrap()
+        };
+        assert_eq!(define("HB_MOTOR_ZERO_US"), map.zero_us());
+        assert_eq!(define("HB_MOTOR_FULL_US"), map.full_us());
+        assert_eq!(define("HB_MOTOR_DEGREE"), 3.0);
+        assert_eq!(define("HB_MOTOR_CENTER_V"), map.center_v());
+        assert_eq!(define("HB_MOTOR_SCALE_V"), map.scale_v());
+        assert_eq!(define("HB_MOTOR_DRIVE_MIN_V"), map.drive_range_v().0);
+        assert_eq!(define("HB_MOTOR_DRIVE_MAX_V"), map.drive_range_v().1);
+        assert_eq!(
+            define("HB_MOTOR_FIT_RMSE_FRACTION"),
+            map.fit_rmse_fraction()
+        );
+        let coefficients: Vec<f64> = text
+            .lines()
+            .find_map(|l| l.strip_prefix("static const double HB_MOTOR_COEFFS_SCALED[4] = { "))
+            .unwrap()
+            .trim_end_matches(" };")
+            .split(", ")
+            .map(|v| v.parse().unwrap())
+            .collect();
+        assert_eq!(coefficients, map.coefficients_scaled());
+        assert!(text.contains("(the motor map included"), "{text}");
+    }
 
     #[test]
     fn a_fraction_a_little_past_full_scale_is_still_a_fraction() {

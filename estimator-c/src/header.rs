@@ -3,10 +3,11 @@
 use estimator::online::{Estimate, MAX_PLAN_SEGMENTS};
 
 use crate::{
-    HB_ERR_BLOB, HB_ERR_MODEL, HB_ERR_NO_BATTERY, HB_ERR_NO_VEHICLE, HB_ERR_NOT_INITIALISED,
-    HB_ERR_NULL, HB_ERR_OBSERVE, HB_ERR_OPTION, HB_ERR_PLAN, HB_OK, HB_STATE_CAPACITY_SCALE,
-    HB_STATE_CURVE_OFFSET_V, HB_STATE_EXTRA_POWER_W, HB_STATE_RESISTANCE_SCALE, HB_STATE_SOC,
-    STATE_WORDS,
+    HB_ERR_BLOB, HB_ERR_DRIVE_ABOVE_RANGE, HB_ERR_DRIVE_BELOW_RANGE, HB_ERR_INPUT, HB_ERR_MODEL,
+    HB_ERR_NO_BATTERY, HB_ERR_NO_MOTOR_MAP, HB_ERR_NO_VEHICLE, HB_ERR_NOT_INITIALISED, HB_ERR_NULL,
+    HB_ERR_OBSERVE, HB_ERR_OPTION, HB_ERR_PLAN, HB_MOTOR_MAP_MAX_MOTORS, HB_OK,
+    HB_STATE_CAPACITY_SCALE, HB_STATE_CURVE_OFFSET_V, HB_STATE_EXTRA_POWER_W,
+    HB_STATE_RESISTANCE_SCALE, HB_STATE_SOC, MOTOR_MAP_WORDS, STATE_WORDS,
 };
 
 /// The text of `include/hoverbench_online.h` (a test checks the checked-in copy is this).
@@ -35,6 +36,10 @@ pub fn c_header() -> String {
         ("HB_ERR_PLAN", HB_ERR_PLAN),
         ("HB_ERR_OBSERVE", HB_ERR_OBSERVE),
         ("HB_ERR_OPTION", HB_ERR_OPTION),
+        ("HB_ERR_NO_MOTOR_MAP", HB_ERR_NO_MOTOR_MAP),
+        ("HB_ERR_DRIVE_BELOW_RANGE", HB_ERR_DRIVE_BELOW_RANGE),
+        ("HB_ERR_DRIVE_ABOVE_RANGE", HB_ERR_DRIVE_ABOVE_RANGE),
+        ("HB_ERR_INPUT", HB_ERR_INPUT),
     ]
     .iter()
     .map(|(n, v)| format!("#define {n} ({v})\n"))
@@ -69,6 +74,8 @@ extern "C" {{
 
 #define HB_ONLINE_STATE_WORDS {STATE_WORDS}
 #define HB_ONLINE_MAX_PLAN_SEGMENTS {MAX_PLAN_SEGMENTS}
+#define HB_MOTOR_MAP_WORDS {MOTOR_MAP_WORDS}
+#define HB_MOTOR_MAP_MAX_MOTORS {HB_MOTOR_MAP_MAX_MOTORS}u
 
 {errors}
 /* Bits of hb_online_estimate.flags (and of hb_online_update's result). */
@@ -148,8 +155,8 @@ int32_t hb_online_update(hb_online_state *state, double time_s, double voltage_v
                          double current_a_or_nan, uint8_t phase);
 
 /* hb_online_update with the rotors' electrical power (W, all rotors; NAN when not known) read
- * from the motors' ESC commands through the rig's motor map: used in hover when the current is
- * NAN, as the current's power would be. */
+ * from the motors' ESC commands through the rig's motor map (hb_motor_power_w): used in hover
+ * when the current is NAN, as the current's power would be. */
 int32_t hb_online_update_motors(hb_online_state *state, double time_s, double voltage_v,
                                 double current_a_or_nan, uint8_t phase,
                                 double motor_power_w_or_nan);
@@ -174,6 +181,32 @@ int32_t hb_online_zero_current(hb_online_state *state, int32_t enable);
 
 /* sizeof(hb_online_state). */
 size_t hb_online_state_size(void);
+
+/* Opaque motor map: per-rotor electrical power from the ESC command (PWM us) and the supply
+ * voltage, power_w = P(duty * V) with duty = (us - zero_us) / (full_us - zero_us) clamped to
+ * 0..1, fitted by hoverbench fit from the rig's two sweeps. */
+typedef struct hb_motor_map {{
+    uint64_t words[HB_MOTOR_MAP_WORDS];
+}} hb_motor_map;
+
+/* Initialises map from the parameter blob's motor-map block. HB_ERR_BLOB for a blob that is not
+ * valid, HB_ERR_NO_MOTOR_MAP for one without a motor map; on an error map is left
+ * uninitialised. */
+int32_t hb_motor_map_init(const uint8_t *blob, size_t len, hb_motor_map *map);
+
+/* Total electrical power of motors rotors (W) from their ESC commands command_us[0..motors]
+ * (PWM us) on a supply of voltage_v (the pack's voltage under load), written to *power_w: the
+ * value to pass to hb_online_update_motors (NAN on an error). On an error *power_w is untouched
+ * and the first failing rotor gives the code: HB_ERR_OPTION (motors 0 or above
+ * HB_MOTOR_MAP_MAX_MOTORS), HB_ERR_INPUT (a command or the voltage not finite, or the voltage
+ * not above 0), HB_ERR_DRIVE_BELOW_RANGE / HB_ERR_DRIVE_ABOVE_RANGE (duty * V outside the
+ * range the sweeps measured; the map never extrapolates; below is expected at idle on the
+ * ground), HB_ERR_NOT_INITIALISED, HB_ERR_NULL. */
+int32_t hb_motor_power_w(const hb_motor_map *map, const double *command_us, uint32_t motors,
+                         double voltage_v, double *power_w);
+
+/* sizeof(hb_motor_map). */
+size_t hb_motor_map_size(void);
 
 #ifdef __cplusplus
 }}

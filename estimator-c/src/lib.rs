@@ -5,30 +5,62 @@
 //!
 //! Main items: [`hb_online_init`] (from the parameter blob `hoverbench fit --blob` writes, with
 //! its battery and vehicle blocks; [`hb_online_init_with`] with the averaging window and the
-//! thrust-limit end), [`hb_online_update`] (one sample), [`hb_online_read`] (the
-//! estimate as [`HbOnlineEstimate`]), [`hb_online_set_plan`], [`hb_online_observe`] (an
-//! outside reading of one state, e.g. a pack's measured capacity). The caller owns the state: an
+//! thrust-limit end), [`hb_online_update`] (one sample; [`hb_online_update_motors`] with the
+//! rotors' power for a flight that logs no current), [`hb_online_read`] (the estimate as
+//! [`HbOnlineEstimate`]), [`hb_online_set_plan`], [`hb_online_observe`] (an outside reading of
+//! one state, e.g. a pack's measured capacity). The caller owns the state: an
 //! [`HbOnlineState`] of [`STATE_WORDS`] 64-bit words, static or on the stack; nothing is
 //! allocated.
 //!
+//! The rotors' power from the motors' ESC commands: [`hb_motor_map_init`] reads the blob's
+//! motor map (`estimator::MotorMap`, fitted by `hoverbench fit` from the rig's two sweeps)
+//! into a caller-owned [`HbMotorMap`] of [`MOTOR_MAP_WORDS`] words, and [`hb_motor_power_w`]
+//! gives the total electrical power of up to [`HB_MOTOR_MAP_MAX_MOTORS`] rotors from their
+//! commands (µs) and the pack's voltage, `MotorMap::total_power_w`: the value
+//! [`hb_online_update_motors`] takes. A command that drives its motor outside the range the
+//! sweeps measured is an error code (below: [`HB_ERR_DRIVE_BELOW_RANGE`], expected at idle on
+//! the ground; above: [`HB_ERR_DRIVE_ABOVE_RANGE`]), never an extrapolation; pass NaN then.
+//!
 //! ```
-//! use hoverbench_online::{HbOnlineEstimate, HbOnlineState, hb_online_init, hb_online_read, hb_online_update};
+//! use hoverbench_online::{
+//!     HB_ERR_DRIVE_BELOW_RANGE, HB_OK, HbMotorMap, HbOnlineEstimate, HbOnlineState,
+//!     hb_motor_map_init, hb_motor_power_w, hb_online_init, hb_online_read, hb_online_update,
+//!     hb_online_update_motors,
+//! };
 //! # use estimator::online::{BatteryModel, Vehicle};
 //! # let curve = estimator::PolyCurve::new(&[22.36, 29.12, 6.76], 130.0, 130.0, (0.0, 260.0), None).unwrap();
+//! # // P(x) = 10 W + 12 W·t + 4 W·t², t = (x − 6 V) / 5 V, measured from 1 V to 11 V of drive.
+//! # let motor = estimator::MotorMap::new(1000.0, 2000.0, &[10.0, 12.0, 4.0], 6.0, 5.0, (1.0, 11.0), 0.01).unwrap();
 //! # let params = estimator::Params { rotor_count: 4, curve, thrust_limit: None,
 //! #     battery: Some(BatteryModel::lipo(3, 2.1).unwrap()),
 //! #     vehicle: Some(Vehicle { structure_mass_kg: 0.431, battery_mass_kg: 0.144, payload_mass_kg: 0.0, avionics_power_w: 2.44, payload_power_w: 0.0 }),
-//! #     motor: None };
+//! #     motor: Some(motor) };
 //! # let mut blob = [0u8; estimator::params::MAX_BLOB_LEN];
 //! # let len = params.encode(&mut blob).unwrap();
 //! let mut state = HbOnlineState::ZEROED;
+//! let mut map = HbMotorMap::ZEROED;
 //! let mut out = HbOnlineEstimate::default();
-//! // SAFETY: valid pointers to a blob of `len` bytes, a state and an estimate.
+//! let mut rotors_w = f64::NAN;
+//! // SAFETY: valid pointers to a blob of `len` bytes, a state, a map, four commands, a power
+//! // and an estimate.
 //! unsafe {
-//!     assert_eq!(hb_online_init(blob.as_ptr(), len, &mut state), 0);
+//!     assert_eq!(hb_online_init(blob.as_ptr(), len, &mut state), HB_OK);
+//!     assert_eq!(hb_motor_map_init(blob.as_ptr(), len, &mut map), HB_OK);
 //!     assert!(hb_online_update(&mut state, 0.0, 12.4, f64::NAN, 2) >= 0);
-//!     assert_eq!(hb_online_read(&state, &mut out), 0);
+//!     // Hovering, no current sensor: the four ESC commands give the rotors' power.
+//!     let command_us = [1600.0, 1575.0, 1625.0, 1600.0];
+//!     assert_eq!(hb_motor_power_w(&map, command_us.as_ptr(), 4, 12.0, &mut rotors_w), HB_OK);
+//!     assert!(hb_online_update_motors(&mut state, 0.2, 12.0, f64::NAN, 2, rotors_w) >= 0);
+//!     // Idle on the ground is below the map's range: an error code, the power untouched.
+//!     let idle_us = [1080.0; 4];
+//!     let mut idle_w = f64::NAN;
+//!     assert_eq!(hb_motor_power_w(&map, idle_us.as_ptr(), 4, 12.0, &mut idle_w), HB_ERR_DRIVE_BELOW_RANGE);
+//!     assert!(idle_w.is_nan());
+//!     assert_eq!(hb_online_read(&state, &mut out), HB_OK);
 //! }
+//! // On 12 V the commands drive 7.2, 6.9, 7.5 and 7.2 V (duty × V, the ESC driving from 1000
+//! // to 2000 µs): t = 0.24, 0.18, 0.30, 0.24, so 4 × 10 W + 12 W × 0.96 + 4 W × 0.2376.
+//! assert!((rotors_w - 52.4704).abs() < 1e-9);
 //! assert!(out.remaining_phase_s > 0.0);
 //! ```
 //!
@@ -61,7 +93,7 @@ pub extern "C" fn rust_eh_personality() {}
 use estimator::online::{
     Estimate, FilterState, FlightPhase, OnlineConfig, OnlineEstimator, Sample,
 };
-use estimator::{MissionOptions, Params, Segment};
+use estimator::{EstimateError, MissionOptions, MotorMap, Params, Segment};
 
 /// 64-bit words of [`HbOnlineState`]: room for the estimator ([`OnlineEstimator::STATE_SIZE_BYTES`]
 /// bytes on this target) and a tag.
@@ -94,6 +126,19 @@ pub const HB_ERR_OBSERVE: i32 = -8;
 /// An option of [`hb_online_init_with`] is out of range (an averaging window that is not a
 /// finite number of seconds, 0 or more).
 pub const HB_ERR_OPTION: i32 = -9;
+
+/// The blob has no motor-map block (flag bit 4: `hoverbench fit` writes one when both sweeps
+/// logged the ESC command and the power).
+pub const HB_ERR_NO_MOTOR_MAP: i32 = -10;
+/// An ESC command drives its motor below the motor map's measured drive range (`duty × V`
+/// under the lowest fitted step: idle on the ground, or a command under the ESC's zero).
+pub const HB_ERR_DRIVE_BELOW_RANGE: i32 = -11;
+/// An ESC command drives its motor above the motor map's measured drive range (`duty × V`
+/// over the highest fitted step: e.g. full throttle on a fuller pack than the rig's supply).
+pub const HB_ERR_DRIVE_ABOVE_RANGE: i32 = -12;
+/// A reading is not usable: an ESC command that is not a finite number, or a voltage that is
+/// not a finite number above 0.
+pub const HB_ERR_INPUT: i32 = -13;
 
 /// [`hb_online_observe`]'s states: the state of charge (0..1).
 pub const HB_STATE_SOC: u32 = 0;
@@ -371,8 +416,8 @@ pub unsafe extern "C" fn hb_online_update(
 }
 
 /// [`hb_online_update`] with the rotors' electrical power read from the motors' ESC commands
-/// through the rig's motor map (W, all rotors together; NaN when not known): used in hover
-/// when the current is NaN, as the current's power would be.
+/// through the rig's motor map ([`hb_motor_power_w`]; W, all rotors together; NaN when not
+/// known): used in hover when the current is NaN, as the current's power would be.
 /// # Safety
 /// `state` points to an `HbOnlineState` (or is null, which is `HB_ERR_NULL`).
 #[unsafe(no_mangle)]
@@ -541,6 +586,142 @@ pub unsafe extern "C" fn hb_online_zero_current(state: *mut HbOnlineState, enabl
 #[unsafe(no_mangle)]
 pub extern "C" fn hb_online_state_size() -> usize {
     core::mem::size_of::<HbOnlineState>()
+}
+
+/// 64-bit words of [`HbMotorMap`]: room for the map (`size_of::<MotorMap>()` bytes, 184 on
+/// 64-bit targets with `estimator::MAX_DEGREE` 12), a tag, and 8 words spare so that the map can
+/// grow a little without changing the C layout.
+pub const MOTOR_MAP_WORDS: usize = 32;
+/// Most motors [`hb_motor_power_w`] sums (an octocopter's 8, a coaxial octo's 16).
+pub const HB_MOTOR_MAP_MAX_MOTORS: u32 = 16;
+/// Tag of an initialised motor map.
+const MOTOR_MAP_TAG: u64 = 0x4842_4d4f_544f_524d; // "HBMOTORM"
+
+const _: () = assert!(core::mem::size_of::<MotorMap>() <= (MOTOR_MAP_WORDS - 1) * 8);
+const _: () = assert!(core::mem::align_of::<MotorMap>() <= 8);
+
+/// Caller-owned storage of the rig's motor map (per-rotor electrical power from the ESC
+/// command and the supply voltage, `estimator::MotorMap`), filled by [`hb_motor_map_init`]
+/// from the parameter blob.
+#[repr(C)]
+#[derive(Debug, Clone, Copy)]
+pub struct HbMotorMap {
+    /// Opaque.
+    pub words: [u64; MOTOR_MAP_WORDS],
+}
+
+impl HbMotorMap {
+    /// An uninitialised (all-zero) map.
+    pub const ZEROED: Self = Self {
+        words: [0; MOTOR_MAP_WORDS],
+    };
+
+    fn map(&self) -> Option<&MotorMap> {
+        if self.words[0] != MOTOR_MAP_TAG {
+            return None;
+        }
+        // SAFETY: the tag is written only by `store` after it wrote a valid `MotorMap` at word
+        // 1 (8-byte aligned, size checked at compile time).
+        Some(unsafe { &*(self.words.as_ptr().add(1).cast::<MotorMap>()) })
+    }
+
+    fn store(&mut self, map: MotorMap) {
+        // SAFETY: word 1 onwards holds at least `size_of::<MotorMap>()` bytes, 8-byte aligned
+        // (compile-time checks above); `MotorMap` is `Copy` (no drop).
+        unsafe {
+            core::ptr::write(self.words.as_mut_ptr().add(1).cast::<MotorMap>(), map);
+        }
+        self.words[0] = MOTOR_MAP_TAG;
+    }
+}
+
+/// Initialises `map` from the motor-map block of a parameter blob (`hoverbench fit --blob`
+/// writes one when both sweeps logged the ESC command and the power). Returns `HB_OK`,
+/// `HB_ERR_NULL`, `HB_ERR_BLOB` (not a valid parameter blob) or `HB_ERR_NO_MOTOR_MAP` (a valid
+/// blob without a motor map); on an error a non-null `map` is left uninitialised.
+/// # Safety
+/// `blob` points to `len` readable bytes and `map` to a writable `HbMotorMap` (or either is
+/// null, which is `HB_ERR_NULL`).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn hb_motor_map_init(
+    blob: *const u8,
+    len: usize,
+    map: *mut HbMotorMap,
+) -> i32 {
+    if map.is_null() {
+        return HB_ERR_NULL;
+    }
+    // SAFETY: the caller passes a valid, writable `hb_motor_map`.
+    let map = unsafe { &mut *map };
+    map.words[0] = 0;
+    if blob.is_null() {
+        return HB_ERR_NULL;
+    }
+    // SAFETY: the caller passes `len` readable bytes at `blob` (header contract).
+    let bytes = unsafe { core::slice::from_raw_parts(blob, len) };
+    let Ok(params) = Params::decode(bytes) else {
+        return HB_ERR_BLOB;
+    };
+    let Some(motor) = params.motor else {
+        return HB_ERR_NO_MOTOR_MAP;
+    };
+    map.store(motor);
+    HB_OK
+}
+
+/// The total electrical power of `motors` rotors, W, from their ESC commands `command_us[0..motors]`
+/// (PWM µs) on a supply of `voltage_v` (the pack's voltage under load), written to `power_w`:
+/// `estimator::MotorMap::total_power_w`, the sum of each rotor's power at its drive voltage
+/// `duty × voltage_v`. Returns `HB_OK`, or a negative `HB_ERR_*` with `power_w` untouched:
+/// `HB_ERR_NULL`, `HB_ERR_NOT_INITIALISED` (the map was not initialised by
+/// [`hb_motor_map_init`]), `HB_ERR_OPTION` (`motors` 0 or above
+/// `HB_MOTOR_MAP_MAX_MOTORS`), `HB_ERR_INPUT` (a command or the voltage not a finite number, or
+/// the voltage not above 0), `HB_ERR_DRIVE_BELOW_RANGE` or `HB_ERR_DRIVE_ABOVE_RANGE` (a
+/// command drives its motor outside the range the sweeps measured: the map never extrapolates;
+/// below is expected at idle on the ground). The first rotor that fails gives the code. The
+/// result feeds `hb_online_update_motors`'s `motor_power_w_or_nan` (NAN on an error).
+/// # Safety
+/// `map` points to an `HbMotorMap`, `command_us` to `motors` readable doubles and `power_w` to
+/// a writable double (or any is null, which is `HB_ERR_NULL`).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn hb_motor_power_w(
+    map: *const HbMotorMap,
+    command_us: *const f64,
+    motors: u32,
+    voltage_v: f64,
+    power_w: *mut f64,
+) -> i32 {
+    if map.is_null() || command_us.is_null() || power_w.is_null() {
+        return HB_ERR_NULL;
+    }
+    // SAFETY: the caller passes a valid `hb_motor_map`.
+    let Some(map) = (unsafe { &*map }).map() else {
+        return HB_ERR_NOT_INITIALISED;
+    };
+    if motors == 0 || motors > HB_MOTOR_MAP_MAX_MOTORS {
+        return HB_ERR_OPTION;
+    }
+    // SAFETY: the caller passes `motors` readable doubles at `command_us`; `motors` ≤ 16
+    // always fits `usize`.
+    let commands = unsafe { core::slice::from_raw_parts(command_us, motors as usize) };
+    match map.total_power_w(commands, voltage_v) {
+        Ok(w) => {
+            // SAFETY: the caller passes a valid, writable double.
+            unsafe { *power_w = w };
+            HB_OK
+        }
+        Err(EstimateError::DriveBelowRange { .. }) => HB_ERR_DRIVE_BELOW_RANGE,
+        Err(EstimateError::DriveAboveRange { .. }) => HB_ERR_DRIVE_ABOVE_RANGE,
+        // `NonFinite` or `NotPositive` (the only other errors of `MotorMap::power_w`; an empty
+        // slice, `NoRotors`, is excluded above).
+        Err(_) => HB_ERR_INPUT,
+    }
+}
+
+/// Bytes of [`HbMotorMap`].
+#[unsafe(no_mangle)]
+pub extern "C" fn hb_motor_map_size() -> usize {
+    core::mem::size_of::<HbMotorMap>()
 }
 
 #[cfg(feature = "std")]

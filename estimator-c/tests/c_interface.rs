@@ -1,7 +1,8 @@
 //! The C interface from C: the checked-in header is the generated one, and a C program built
 //! with `cc -std=c99 -Wall -Werror` against it and the staticlib gives the Rust estimator's
 //! numbers on the same samples (with a capacity reading fused after the first, as a pack's
-//! history does).
+//! history does, and the rotors' power computed from the motor commands through the blob's
+//! motor map where the log has no current).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -9,8 +10,8 @@ use std::process::Command;
 use estimator::online::{
     BatteryModel, FilterState, FlightPhase, OnlineConfig, OnlineEstimator, Sample,
 };
-use estimator::{MissionOptions, Params, Segment};
-use hoverbench_online::{HbOnlineEstimate, HbOnlineState, c_header};
+use estimator::{MissionOptions, MotorMap, Params, Segment};
+use hoverbench_online::{HbMotorMap, HbOnlineEstimate, HbOnlineState, c_header};
 
 fn manifest_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -35,7 +36,46 @@ fn checked_in_header_is_the_generated_one() {
 #[path = "../../estimator/tests/support/fixture.rs"]
 mod fixture;
 
-/// The estimator's test platform with a LiPo pack of 12 + 6 mΩ per cell, τ 20 s.
+/// The motor map of the test's rig: `P(x) = 0.5 W + 0.0625 W/V³ · x³` per rotor (a propeller's
+/// power rises with the cube of its speed, the speed with the drive voltage `x = duty · V`;
+/// 108.5 W at 12 V of drive, 26.9 W at 7.5 V), measured from 1 V to 12 V of drive,
+/// the ESC driving from 1050 µs to 2000 µs.
+const MOTOR_IDLE_W: f64 = 0.5;
+const MOTOR_W_PER_V3: f64 = 0.0625;
+const MOTOR_ZERO_US: f64 = 1050.0;
+const MOTOR_FULL_US: f64 = 2000.0;
+
+fn motor_map() -> MotorMap {
+    // The cubic in the map's scaled basis t = (x − c) / s: (c + s·t)³ expanded.
+    let (c, s) = (6.5, 5.5);
+    let k = MOTOR_W_PER_V3;
+    let coefficients = [
+        MOTOR_IDLE_W + k * c * c * c,
+        k * 3.0 * c * c * s,
+        k * 3.0 * c * s * s,
+        k * s * s * s,
+    ];
+    MotorMap::new(
+        MOTOR_ZERO_US,
+        MOTOR_FULL_US,
+        &coefficients,
+        c,
+        s,
+        (1.0, 12.0),
+        0.01,
+    )
+    .unwrap()
+}
+
+/// The ESC command that gives one rotor `power_w` on a pack of `voltage_v` under the test's map
+/// (the inverse of [`motor_map`]'s cubic): what a flight controller holding that power sends.
+fn command_us(power_w: f64, voltage_v: f64) -> f64 {
+    let drive_v = ((power_w - MOTOR_IDLE_W) / MOTOR_W_PER_V3).cbrt();
+    MOTOR_ZERO_US + drive_v / voltage_v * (MOTOR_FULL_US - MOTOR_ZERO_US)
+}
+
+/// The estimator's test platform with a LiPo pack of 12 + 6 mΩ per cell, τ 20 s, and the
+/// rig's motor map.
 fn params() -> Params {
     let mut battery = BatteryModel::lipo(3, 2.1).unwrap();
     battery.series_resistance_cell_ohm = 0.012;
@@ -43,14 +83,23 @@ fn params() -> Params {
     battery.rc_time_constant_s = 20.0;
     Params {
         battery: Some(battery),
+        motor: Some(motor_map()),
         ..fixture::params()
     }
 }
 
+/// One logged sample: the battery's (with the rotors' power left to the motor map) and the
+/// four motors' ESC commands, µs, when logged.
+struct Logged {
+    sample: Sample,
+    command_us: Option<[f64; 4]>,
+}
+
 /// A discharge at 108 W from a pack a little smaller than the file's, 5 Hz, current logged on
-/// the first half only, the rotors' power from the motor commands (2 % high) in flight on the
-/// second, a few garbage samples.
-fn samples() -> Vec<Sample> {
+/// the first half only, the motor commands from 150 s on (the rotors' 105.6 W read 2 % high
+/// through the map, unevenly shared as a quadrotor's yaw and balance trims do), a few garbage
+/// samples (the voltage not a number: the map gives no power either).
+fn samples() -> Vec<Logged> {
     let mut out = Vec::new();
     let (mut soc, mut t) = (1.0f64, 0.0);
     let mut k = 0u32;
@@ -64,20 +113,26 @@ fn samples() -> Vec<Sample> {
             break;
         }
         let garbage = k % 97 == 96;
-        out.push(Sample {
-            time_s: t,
-            voltage_v: if garbage {
-                f64::NAN
-            } else {
-                v + 0.01 * (f64::from(k) * 1.7).sin()
+        let rotors_w = (p - 2.44) * 1.02;
+        let command_us = (flying && t >= 150.0)
+            .then(|| [1.03, 0.97, 1.01, 0.99].map(|share| command_us(share * rotors_w / 4.0, v)));
+        out.push(Logged {
+            sample: Sample {
+                time_s: t,
+                voltage_v: if garbage {
+                    f64::NAN
+                } else {
+                    v + 0.01 * (f64::from(k) * 1.7).sin()
+                },
+                current_a: (t < 300.0).then_some(i),
+                phase: Some(if flying {
+                    FlightPhase::Hover
+                } else {
+                    FlightPhase::Ground
+                }),
+                motor_power_w: None,
             },
-            current_a: (t < 300.0).then_some(i),
-            phase: Some(if flying {
-                FlightPhase::Hover
-            } else {
-                FlightPhase::Ground
-            }),
-            motor_power_w: (flying && t >= 300.0).then_some((p - 2.44) * 1.02),
+            command_us,
         });
         soc -= i * 0.2 / (3600.0 * 1.9);
         t += 0.2;
@@ -145,7 +200,7 @@ fn c_program_with_the_opt_ins_agrees_with_the_rust_estimator() {
 }
 
 /// Runs the C program over [`samples`] (with the opt-ins or not) and compares every 50th
-/// estimate with the Rust estimator's.
+/// estimate with the Rust estimator's, the rotors' power from the motor map on both sides.
 fn agrees(opt_ins: bool) {
     let dir = tempfile::tempdir().unwrap();
     let exe = compile(dir.path());
@@ -160,36 +215,74 @@ fn agrees(opt_ins: bool) {
         config = config.with_opt_ins(1.0, true);
         config.zero_current = true;
     }
-    let mut blob = [0u8; estimator::params::MAX_BLOB_LEN];
-    let n = p.encode(&mut blob).unwrap();
-    let blob_path = dir.path().join("params.hbp");
-    std::fs::write(&blob_path, &blob[..n]).unwrap();
-    let samples = samples();
+    let map = p.motor.unwrap();
+    let write_blob = |params: &Params, name: &str| {
+        let mut blob = [0u8; estimator::params::MAX_BLOB_LEN];
+        let n = params.encode(&mut blob).unwrap();
+        let path = dir.path().join(name);
+        std::fs::write(&path, &blob[..n]).unwrap();
+        path
+    };
+    let blob_path = write_blob(&p, "params.hbp");
+    let without_motor_path = write_blob(&Params { motor: None, ..p }, "no-motor.hbp");
+    let mut samples = samples();
     let text: String = samples
         .iter()
-        .map(|s| {
+        .map(|l| {
+            let s = &l.sample;
+            let commands = l.command_us.map_or("nan nan nan nan".to_owned(), |c| {
+                c.map(|u| format!("{u:.17e}")).join(" ")
+            });
             format!(
-                "{:.17e} {:.17e} {} {} {}\n",
+                "{:.17e} {:.17e} {} {} {commands}\n",
                 s.time_s,
                 s.voltage_v,
                 s.current_a
                     .map_or("nan".to_owned(), |i| format!("{i:.17e}")),
                 s.phase.map_or(0, |p| p as u8),
-                s.motor_power_w
-                    .map_or("nan".to_owned(), |w| format!("{w:.17e}")),
             )
         })
         .collect();
+    // The Rust side: the rotors' power from the same commands and voltage through the map, as
+    // the C program computes it with `hb_motor_power_w` (none when the map refuses them).
+    for l in &mut samples {
+        l.sample.motor_power_w = l
+            .command_us
+            .and_then(|c| map.total_power_w(&c, l.sample.voltage_v).ok());
+    }
+    let from_map = samples
+        .iter()
+        .filter(|l| l.sample.motor_power_w.is_some())
+        .count();
     let samples_path = dir.path().join("samples.txt");
     std::fs::write(&samples_path, text).unwrap();
     let mut cmd = Command::new(&exe);
-    cmd.arg(&blob_path).arg(&samples_path);
+    cmd.arg(&blob_path)
+        .arg(&without_motor_path)
+        .arg(&samples_path);
     if opt_ins {
         cmd.arg("opt-ins");
     }
     let out = cmd.output().unwrap();
     let stdout = String::from_utf8(out.stdout).unwrap();
     assert!(out.status.success(), "exit {:?}: {stdout}", out.status);
+
+    let mut lines = stdout.lines();
+    // The motor map from C, at fixed commands: four motors hovering on 11.8 V, and sixteen.
+    let motor: Vec<f64> = lines
+        .next()
+        .unwrap()
+        .strip_prefix("motor ")
+        .unwrap()
+        .split(' ')
+        .map(|v| v.parse().unwrap())
+        .collect();
+    assert_eq!(
+        motor[0],
+        map.total_power_w(&[1480.0, 1510.0, 1495.5, 1502.25], 11.8)
+            .unwrap()
+    );
+    assert_eq!(motor[1], map.total_power_w(&[1500.0; 16], 11.8).unwrap());
 
     let mut est = OnlineEstimator::from_params(&p, &config).unwrap();
     est.set_plan(
@@ -200,10 +293,9 @@ fn agrees(opt_ins: bool) {
         &MissionOptions::default(),
     )
     .unwrap();
-    let mut lines = stdout.lines();
     let mut compared = 0;
-    for (k, s) in samples.iter().enumerate() {
-        let e = est.update(s);
+    for (k, l) in samples.iter().enumerate() {
+        let e = est.update(&l.sample);
         if k == 0 {
             est.observe_state(FilterState::CapacityScale, 0.9, 0.04)
                 .unwrap();
@@ -239,6 +331,17 @@ fn agrees(opt_ins: bool) {
         compared += 1;
     }
     assert!(compared > 20, "{compared}");
+    // The C program took the map's power on as many samples as the Rust side: every sample
+    // with commands but the garbage ones.
+    let motor_ok: usize = lines
+        .next()
+        .unwrap()
+        .strip_prefix("motor_ok ")
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert_eq!(motor_ok, from_map);
+    assert!(from_map > 1000, "{from_map}");
     let sizes: Vec<usize> = lines
         .next()
         .unwrap()
@@ -250,4 +353,6 @@ fn agrees(opt_ins: bool) {
     assert_eq!(sizes[0], std::mem::size_of::<HbOnlineState>());
     assert_eq!(sizes[1], std::mem::size_of::<HbOnlineEstimate>());
     assert_eq!(sizes[2], sizes[0]);
+    assert_eq!(sizes[3], std::mem::size_of::<HbMotorMap>());
+    assert_eq!(sizes[4], sizes[3]);
 }
