@@ -444,6 +444,7 @@ mod tests {
             online: Some(&online),
             chemistry: None,
             trace_unscored: false,
+            motor_power: false,
         };
         let mut h = PackHistory::new();
         let r = crate::replay_flight_with_history(&f, &config, Some(&mut h)).unwrap();
