@@ -889,14 +889,7 @@ mod tests {
         let curve =
             estimator::PolyCurve::new(&[22.36, 29.12, 6.76], 130.0, 130.0, (0.0, 260.0), None)
                 .unwrap();
-        let mut p = estimator::Params {
-            rotor_count: 4,
-            curve,
-            thrust_limit: None,
-            battery: None,
-            vehicle: None,
-            motor: None,
-        };
+        let mut p = estimator::Params::new(4, curve);
         let without = c_header(&p, &[1, 2, 3], "G_H");
         assert!(!without.contains("HB_MOTOR"), "{without}");
         let map = estimator::MotorMap::new(

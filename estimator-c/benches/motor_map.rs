@@ -29,12 +29,8 @@ fn map() -> HbMotorMap {
     )
     .expect("a valid map");
     let params = estimator::Params {
-        rotor_count: 4,
-        curve,
-        thrust_limit: None,
-        battery: None,
-        vehicle: None,
         motor: Some(motor),
+        ..estimator::Params::new(4, curve)
     };
     let mut blob = [0u8; estimator::params::MAX_BLOB_LEN];
     let len = params.encode(&mut blob).expect("an encodable blob");

@@ -93,6 +93,27 @@ pub struct Params {
 }
 
 impl Params {
+    /// The parameters of `rotor_count` rotors on `curve`, with no optional section (thrust
+    /// limit, battery, vehicle, motor map); set those with struct update syntax:
+    ///
+    /// ```
+    /// # use estimator::{Params, PolyCurve};
+    /// let curve = PolyCurve::new(&[22.4, 29.1, 6.8], 130.0, 130.0, (0.0, 260.0), None).unwrap();
+    /// let p = Params::new(4, curve);
+    /// assert!(p.thrust_limit.is_none() && p.motor.is_none());
+    /// ```
+    #[must_use]
+    pub const fn new(rotor_count: u8, curve: PolyCurve) -> Self {
+        Self {
+            rotor_count,
+            curve,
+            thrust_limit: None,
+            battery: None,
+            vehicle: None,
+            motor: None,
+        }
+    }
+
     /// `m_L`: total thrust limit over all rotors, kg.
     pub fn thrust_limit_kg(&self) -> Option<f64> {
         self.thrust_limit
@@ -500,20 +521,27 @@ mod tests {
             assert_eq!(Params::decode(&buf[..n]).unwrap(), q);
         }
         // The longest blob without a motor map: MAX_BLOB_LEN less the longest motor block.
-        let mut p = with_battery(true);
-        p.curve = PolyCurve::new(
-            &[1.0; MAX_DEGREE + 1],
-            135.0,
-            125.0,
-            (10.0, 260.0),
-            Some(12.5),
-        )
-        .unwrap();
+        let p = longest_without_motor();
         let mut buf = [0u8; MAX_BLOB_LEN];
         assert_eq!(
             p.encode(&mut buf).unwrap(),
             MAX_BLOB_LEN - motor_block_len(MAX_DEGREE)
         );
+    }
+
+    /// Every section but the motor map, the curve of the highest degree.
+    fn longest_without_motor() -> Params {
+        Params {
+            curve: PolyCurve::new(
+                &[1.0; MAX_DEGREE + 1],
+                135.0,
+                125.0,
+                (10.0, 260.0),
+                Some(12.5),
+            )
+            .unwrap(),
+            ..with_battery(true)
+        }
     }
 
     fn motor_map(coefficients: &[f64]) -> MotorMap {
@@ -546,15 +574,7 @@ mod tests {
             assert_eq!(Params::decode(&buf[..n]).unwrap(), q);
         }
         // The longest blob, with a motor curve of the highest degree, fits MAX_BLOB_LEN exactly.
-        let mut p = with_battery(true);
-        p.curve = PolyCurve::new(
-            &[1.0; MAX_DEGREE + 1],
-            135.0,
-            125.0,
-            (10.0, 260.0),
-            Some(12.5),
-        )
-        .unwrap();
+        let mut p = longest_without_motor();
         p.motor = Some(motor_map(&[2.0; MAX_DEGREE + 1]));
         let mut buf = [0u8; MAX_BLOB_LEN];
         assert_eq!(p.encode(&mut buf).unwrap(), MAX_BLOB_LEN);

@@ -425,14 +425,7 @@ mod tests {
         f.meta.battery_mass_kg = Some(0.17);
         f.meta.avionics_power_w = Some(2.4);
         let curve = paper::reproduce().unwrap().curve;
-        let params = estimator::Params {
-            rotor_count: 4,
-            curve,
-            thrust_limit: None,
-            battery: None,
-            vehicle: None,
-            motor: None,
-        };
+        let params = estimator::Params::new(4, curve);
         let battery = estimator::online::BatteryModel::lipo(3, 2.0).unwrap();
         let online = crate::online::FileOnline::new(
             params,
