@@ -3,7 +3,8 @@
 //! `cargo run --release -p replay-eval --example trace -- FAMILY SEED [STEP]`
 //! (`SWEEP_SENSORS=ideal` and the like: calibrated sensors; `SWEEP_CFG`: the estimator's
 //! settings; both as in the sweep example). `SWEEP_DROP_CURRENT=1` replays the flights without
-//! their current column (a tuning family flown as a voltage-only log).
+//! their current column (a tuning family flown as a voltage-only log); `SWEEP_MOTOR_POWER=1`
+//! gives the estimator the rotors' power read from the motor commands (`--motor-power`).
 
 use replay::OnlineBuilder;
 use replay::online::FileOnline;
@@ -27,6 +28,10 @@ fn main() {
         |s| replay_eval::config_from_spec(&s).expect("SWEEP_CFG"),
     );
     let drop_current = std::env::var("SWEEP_DROP_CURRENT").is_ok_and(|v| v == "1");
+    let motor_map = p
+        .params
+        .motor
+        .filter(|_| std::env::var("SWEEP_MOTOR_POWER").is_ok_and(|v| v == "1"));
     for (flight, battery) in &p.flights {
         let mut flight = flight.clone();
         if drop_current {
@@ -81,7 +86,10 @@ fn main() {
                 voltage_v: s.voltage_v[k],
                 current_a: s.current_a.as_ref().map(|c| c[k]),
                 phase: s.phase.as_ref().map(|p| p[k]),
-                motor_power_w: None,
+                motor_power_w: motor_map.as_ref().and_then(|m| {
+                    let us: Vec<f64> = s.motor_us.as_ref()?.iter().map(|c| c[k]).collect();
+                    m.total_power_w(&us, s.voltage_v[k]).ok()
+                }),
             };
             let r = pred.update(&sample);
             let frac = (t - span.takeoff_s) / span.duration_s();
