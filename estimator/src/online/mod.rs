@@ -206,6 +206,9 @@ pub struct OnlineConfig {
     pub initial_soc_sigma: f64,
     /// Initial standard deviation of the resistance scale.
     pub resistance_scale_sigma: f64,
+    /// Initial standard deviation of a series resistance beyond the battery model's, Ω at
+    /// pack level, added in quadrature to [`Self::resistance_scale_sigma`] × the model's (EXPERIMENT).
+    pub resistance_sigma_ohm: f64,
     /// Initial standard deviation of the capacity scale.
     pub capacity_scale_sigma: f64,
     /// Initial standard deviation of the extra power, as a fraction of the hover power.
@@ -409,6 +412,7 @@ impl Default for OnlineConfig {
             motor_power_sigma_fraction: 0.02,
             initial_soc_sigma: 0.03,
             resistance_scale_sigma: 0.4,
+            resistance_sigma_ohm: 0.0,
             capacity_scale_sigma: 0.05,
             extra_power_sigma_fraction: 0.15,
             resistance_drift_per_sqrt_s: 2e-3,
@@ -924,6 +928,14 @@ impl OnlineEstimator {
             FilterState::ExtraPowerW => PEXTRA,
             FilterState::CurveOffsetV => VBIAS,
         };
+        // A resistance scale is read against the battery model's resistance; the state's is
+        // against the reference it multiplies.
+        let (value, sigma) = if k == RSCALE && self.pack.r_ref_ohm > 0.0 {
+            let f = self.pack.r0_ohm / self.pack.r_ref_ohm;
+            (value * f, sigma * f)
+        } else {
+            (value, sigma)
+        };
         let mut h = SMatrix::<f64, 1, STATES>::zeros();
         h[k] = 1.0;
         self.scalar_update(&h, value - self.x[k], sigma * sigma);
@@ -1120,7 +1132,6 @@ impl OnlineEstimator {
         // The prediction may be up to `prediction_interval_s` old: age it by the time since.
         let age = (self.last_time_s - pr.time_s).max(0.0);
         let q = self.pack.capacity_ah;
-        let r = self.pack.r0_ohm;
         Estimate {
             time_s: self.last_time_s,
             remaining_phase_s: (pr.phase_s - age).max(0.0),
@@ -1133,8 +1144,8 @@ impl OnlineEstimator {
             soc_sigma: sd(SOC),
             usable_capacity_ah: q * self.x[CSCALE],
             usable_capacity_sigma_ah: q * sd(CSCALE),
-            series_resistance_ohm: r * self.x[RSCALE],
-            series_resistance_sigma_ohm: r * sd(RSCALE),
+            series_resistance_ohm: self.pack.r_ref_ohm * self.x[RSCALE],
+            series_resistance_sigma_ohm: self.pack.r_ref_ohm * sd(RSCALE),
             extra_power_w: self.x[PEXTRA],
             extra_power_sigma_w: sd(PEXTRA),
             phase_power_w: pr.phase_power_w,
@@ -1161,7 +1172,7 @@ impl OnlineEstimator {
     fn model_current(&self, x: &Vector) -> (f64, bool) {
         let e = self.pack.ocv_v(x[SOC]) - x[VRC] + x[VBIAS];
         self.pack
-            .current_for_power(e, self.pack.r0_ohm * x[RSCALE], self.power_w(self.phase, x))
+            .current_for_power(e, self.pack.r_ref_ohm * x[RSCALE], self.power_w(self.phase, x))
     }
 
     fn initialise(&mut self, t: f64, v: f64, logged: Option<f64>) {
@@ -1176,9 +1187,23 @@ impl OnlineEstimator {
         let (_, slope) = self.pack.ocv_and_slope(s0);
         // Voltage uncertainty of the open-circuit reading: noise, and the resistance's
         // uncertainty times the current.
+        // The absolute prior only where no current is logged (EXPERIMENT).
+        let r_abs = if logged.is_none() { c.resistance_sigma_ohm } else { 0.0 };
+        self.pack.r_ref_ohm = r0.max(r_abs);
+        let r_sigma = libm::sqrt(
+            (r0 * c.resistance_scale_sigma) * (r0 * c.resistance_scale_sigma)
+                + r_abs * r_abs,
+        );
+        // The resistance scale's mean and sigma on the reference it multiplies (a model
+        // without resistance and no absolute prior: the scale stays 1 and moves nothing).
+        let (r_scale, r_scale_sigma) = if self.pack.r_ref_ohm > 0.0 {
+            (r0 / self.pack.r_ref_ohm, r_sigma / self.pack.r_ref_ohm)
+        } else {
+            (1.0, c.resistance_scale_sigma)
+        };
         let sigma_e = libm::sqrt(
             c.voltage_sigma_v * c.voltage_sigma_v
-                + (i * r0 * c.resistance_scale_sigma) * (i * r0 * c.resistance_scale_sigma)
+                + (i * r_sigma) * (i * r_sigma)
                 + (i * r1 * 0.5) * (i * r1 * 0.5),
         );
         // The curve's offset (unknown) enters the state of charge read from the voltage:
@@ -1187,13 +1212,13 @@ impl OnlineEstimator {
         let slope = slope.max(1e-3);
         let soc_sigma =
             (libm::sqrt(sigma_e * sigma_e + sb * sb) / slope).clamp(c.initial_soc_sigma, 0.5);
-        self.x = Vector::from([s0, i * r1, 1.0, 1.0, 0.0, 0.0]);
+        self.x = Vector::from([s0, i * r1, r_scale, 1.0, 0.0, 0.0]);
         let pe_sigma = c.extra_power_sigma_fraction * self.hover_power_w;
         let vrc_sigma = 0.5 * i.abs() * r1 + 1e-3;
         self.p = Matrix::from_diagonal(&Vector::from([
             soc_sigma * soc_sigma,
             vrc_sigma * vrc_sigma,
-            c.resistance_scale_sigma * c.resistance_scale_sigma,
+            r_scale_sigma * r_scale_sigma,
             c.capacity_scale_sigma * c.capacity_scale_sigma,
             pe_sigma * pe_sigma,
             sb * sb,
@@ -1282,7 +1307,7 @@ impl OnlineEstimator {
     /// Predicted terminal voltage at state `x`.
     fn measure(&self, x: &Vector, logged: Option<f64>) -> f64 {
         let e = self.pack.ocv_v(x[SOC]) - x[VRC] + x[VBIAS];
-        let r = self.pack.r0_ohm * x[RSCALE];
+        let r = self.pack.r_ref_ohm * x[RSCALE];
         match logged {
             Some(i) => e - i * r,
             None => {

@@ -14,8 +14,12 @@ pub(super) struct Pack {
     pub battery: BatteryModel,
     pub cells: f64,
     pub capacity_ah: f64,
-    /// Series resistance of the pack, Ω.
+    /// Series resistance of the pack, Ω (the battery model's).
     pub r0_ohm: f64,
+    /// Resistance the filter's resistance scale multiplies, Ω: the model's, or the absolute
+    /// prior ([`super::OnlineConfig::resistance_sigma_ohm`]) when that is larger, so that a
+    /// pack whose model has (nearly) no resistance can still learn one.
+    pub r_ref_ohm: f64,
     /// RC-pair resistance of the pack, Ω.
     pub r1_ohm: f64,
     pub tau_s: f64,
@@ -31,6 +35,7 @@ impl Pack {
             cells: n,
             capacity_ah: b.rated_capacity_ah,
             r0_ohm: n * b.series_resistance_cell_ohm,
+            r_ref_ohm: n * b.series_resistance_cell_ohm,
             r1_ohm: n * b.rc_resistance_cell_ohm,
             tau_s: b.rc_time_constant_s,
             cutoff_v: n * b.cutoff_cell_v,
@@ -176,7 +181,7 @@ pub(super) fn simulate(
         0.0
     };
     let mut v1 = if x[VRC].is_finite() { x[VRC] } else { 0.0 };
-    let r = pack.r0_ohm * x[RSCALE].max(0.0);
+    let r = pack.r_ref_ohm * x[RSCALE].max(0.0);
     let bias = if x[VBIAS].is_finite() { x[VBIAS] } else { 0.0 };
     let q_as = 3600.0 * pack.capacity_ah * x[CSCALE].max(0.05);
     let mut t = 0.0;
