@@ -370,6 +370,12 @@ pub fn online_settings_line(c: &estimator::online::OnlineConfig, inputs: ReplayI
     if c.zero_current {
         on.push("the current sensor's zero read before take-off".to_owned());
     }
+    if c.extra_resistance_sigma_ohm > 0.0 {
+        on.push(format!(
+            "an extra series resistance of {} ohm (one sigma) on flights without a current",
+            c.extra_resistance_sigma_ohm
+        ));
+    }
     if inputs.pack_history {
         on.push("the packs' history".to_owned());
     }
@@ -390,7 +396,8 @@ pub fn online_settings_line(c: &estimator::online::OnlineConfig, inputs: ReplayI
     }
 }
 
-/// The same as JSON: `input_average_s`, `thrust_limit_end`, `zero_current`, `end_soc_sigma`,
+/// The same as JSON: `input_average_s`, `thrust_limit_end`, `zero_current`,
+/// `extra_resistance_sigma_ohm`, `end_soc_sigma`,
 /// `motor_power_sigma_fraction`, `pack_history`, `voltage_only`, `motor_power`.
 pub fn online_settings_json(
     c: &estimator::online::OnlineConfig,
@@ -400,6 +407,7 @@ pub fn online_settings_json(
         "input_average_s": c.input_average_s,
         "thrust_limit_end": c.thrust_limit_end,
         "zero_current": c.zero_current,
+        "extra_resistance_sigma_ohm": c.extra_resistance_sigma_ohm,
         "end_soc_sigma": c.end_soc_sigma,
         "motor_power_sigma_fraction": c.motor_power_sigma_fraction,
         "pack_history": inputs.pack_history,

@@ -574,6 +574,33 @@ fn replay_eval_motor_power_moves_only_logs_with_motor_commands() {
     );
 }
 
+/// `--extra-resistance-sigma` moves only flights without a logged current, says so, and refuses
+/// a negative resistance.
+#[test]
+fn replay_eval_extra_resistance_sigma_moves_only_logs_without_a_current() {
+    let lab = "lipo/lab-1hz/paper";
+    let (a, b) = (
+        run_eval(lab, &[]),
+        run_eval(lab, &["--extra-resistance-sigma", "0.02"]),
+    );
+    assert_eq!(errors(&a, "online"), errors(&b, "online"));
+    assert_eq!(b["online"]["extra_resistance_sigma_ohm"], 0.02);
+    let (a, b) = (
+        run_eval(lab, &["--voltage-only"]),
+        run_eval(lab, &["--voltage-only", "--extra-resistance-sigma", "0.02"]),
+    );
+    assert_ne!(errors(&a, "online"), errors(&b, "online"));
+    let mut bad = ONE_SCENARIO.to_vec();
+    bad.push("--extra-resistance-sigma=-0.1");
+    let out = run(&bad);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--extra-resistance-sigma takes a resistance in ohms, 0 or more; got -0.1"),
+        "{err}"
+    );
+}
+
 /// `replay-eval` says what the online estimator ran with: a first line in the text, `online`
 /// in the JSON (the opt-ins and the band that goes with them).
 #[test]

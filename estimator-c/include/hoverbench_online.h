@@ -149,6 +149,12 @@ int32_t hb_online_observe(hb_online_state *state, uint32_t which, double value, 
  * hb_online_update; HB_ERR_OPTION after it. */
 int32_t hb_online_zero_current(hb_online_state *state, int32_t enable);
 
+/* On a log without a current: lets the filter learn a series resistance beyond the blob's, with
+ * one-sigma ohm for the pack (a worn connector, thin wiring, a worn pack; 0.02 suits small
+ * drones; 0: off, the default). Call before the first hb_online_update; HB_ERR_OPTION after it
+ * or for a negative or non-finite ohm. */
+int32_t hb_online_extra_resistance_sigma(hb_online_state *state, double ohm);
+
 /* sizeof(hb_online_state). */
 size_t hb_online_state_size(void);
 

@@ -582,6 +582,32 @@ pub unsafe extern "C" fn hb_online_zero_current(state: *mut HbOnlineState, enabl
     }
 }
 
+/// On a log without a current, lets the filter learn a series resistance beyond the blob's,
+/// with one-sigma `ohm` for the pack (`OnlineConfig::extra_resistance_sigma_ohm`; 0: off, the
+/// default). Call it after `hb_online_init` or `hb_online_init_with` and before the first
+/// `hb_online_update`. Returns `HB_OK`, or `HB_ERR_OPTION` once a sample has been taken or for
+/// a negative or non-finite `ohm` (nothing changes).
+/// # Safety
+/// `state` points to an `HbOnlineState` (or is null, which is `HB_ERR_NULL`).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn hb_online_extra_resistance_sigma(
+    state: *mut HbOnlineState,
+    ohm: f64,
+) -> i32 {
+    if state.is_null() {
+        return HB_ERR_NULL;
+    }
+    // SAFETY: the caller passes a valid `hb_online_state`.
+    let Some(est) = (unsafe { &mut *state }).estimator_mut() else {
+        return HB_ERR_NOT_INITIALISED;
+    };
+    if est.set_extra_resistance_sigma_ohm(ohm) {
+        HB_OK
+    } else {
+        HB_ERR_OPTION
+    }
+}
+
 /// Bytes of [`HbOnlineState`].
 #[unsafe(no_mangle)]
 pub extern "C" fn hb_online_state_size() -> usize {

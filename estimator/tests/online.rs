@@ -1234,3 +1234,72 @@ fn the_motor_commands_power_stands_in_for_a_missing_current() {
     let (mut e1, mut e2) = (estimator_with(&config), estimator_with(&config));
     assert_eq!(run(&fc, &mut e1), run(&fm, &mut e2));
 }
+
+/// A battery model without series resistance (as a learned LiFePO₄ section can be) cannot
+/// learn a connector's resistance as a scale of it; the absolute prior on a voltage-only log
+/// can, and with a logged current the prior changes nothing.
+#[test]
+fn an_absolute_resistance_prior_learns_a_resistance_the_model_lacks_on_a_voltage_only_log() {
+    let mut battery = file_battery();
+    battery.series_resistance_cell_ohm = 0.0;
+    let make = |sigma_ohm: f64| {
+        let config = OnlineConfig {
+            extra_resistance_sigma_ohm: sigma_ohm,
+            ..OnlineConfig::default()
+        };
+        OnlineEstimator::new(&params(), &battery, &config).unwrap()
+    };
+    let plain = make(0.0);
+    let (idle_w, hover_w) = (plain.idle_power_w(), plain.model_hover_power_w());
+    // The truth: the nominal pack behind 0.05 Ω of connector and wiring (0.017 Ω per cell on
+    // top of its own 0.012), hovering with the power swinging ±5 % every 20 s, the motor
+    // commands giving the rotors' power with 3 % noise.
+    let truth = vary(|p| p.r0_cell_ohm += 0.05 / 3.0);
+    let swing = |t: f64| {
+        if (t / 20.0).floor() as i64 % 2 == 0 {
+            1.05
+        } else {
+            0.95
+        }
+    };
+    let mut f = fly_swinging(truth, idle_w, hover_w, 10.0, None, 21, swing);
+    let mut noise = Noise(0x0b5e);
+    for s in &mut f.samples {
+        if s.phase == Some(FlightPhase::Hover) {
+            let rotors = hover_w * swing(s.time_s) - idle_w;
+            s.motor_power_w = Some(rotors * (1.0 + 0.03 * noise.gauss()));
+        }
+    }
+    let true_ohm = 3.0 * truth.r0_cell_ohm;
+    let (mut without, mut with) = (make(0.0), make(0.05));
+    let (a, b) = (run(&f, &mut without), run(&f, &mut with));
+    let (k, _) = at_fraction(&f, 0.5);
+    assert_eq!(a[k].series_resistance_ohm, 0.0, "no resistance to scale");
+    assert!(
+        (b[k].series_resistance_ohm / true_ohm - 1.0).abs() < 0.15,
+        "{} Ω learned of {true_ohm} Ω",
+        b[k].series_resistance_ohm
+    );
+    // Without it the sag goes to the state of charge (the curve read too low); with it the
+    // state of charge follows the truth. (The remaining time moves with the swing's phase at
+    // the cut-off, which neither can know.)
+    for frac in [0.25, 0.5, 0.75] {
+        let (k, _) = at_fraction(&f, frac);
+        let (ea, eb) = (a[k].soc - f.soc[k], b[k].soc - f.soc[k]);
+        assert!(
+            eb.abs() < 0.02 && ea.abs() > 0.1,
+            "at {frac}: state of charge off by {eb} with the prior, {ea} without"
+        );
+    }
+    // With a current logged the prior is not taken: the same estimates to the bit.
+    let fc = fly(truth, idle_w, hover_w, 10.0, true, 22);
+    let (mut e1, mut e2) = (make(0.0), make(0.05));
+    assert_eq!(run(&fc, &mut e1), run(&fc, &mut e2));
+    // It is set before the first sample only, and only to a finite value of 0 or more.
+    let mut late = make(0.0);
+    assert!(!late.set_extra_resistance_sigma_ohm(-0.01));
+    assert!(!late.set_extra_resistance_sigma_ohm(f64::NAN));
+    assert!(late.set_extra_resistance_sigma_ohm(0.05));
+    late.update(&f.samples[0]);
+    assert!(!late.set_extra_resistance_sigma_ohm(0.0));
+}

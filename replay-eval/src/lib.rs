@@ -1205,7 +1205,7 @@ pub fn config_from_spec(spec: &str) -> Result<OnlineConfig, String> {
             "motor_power_sigma_fraction" => &mut c.motor_power_sigma_fraction,
             "initial_soc_sigma" => &mut c.initial_soc_sigma,
             "resistance_scale_sigma" => &mut c.resistance_scale_sigma,
-            "resistance_sigma_ohm" => &mut c.resistance_sigma_ohm,
+            "extra_resistance_sigma_ohm" => &mut c.extra_resistance_sigma_ohm,
             "capacity_scale_sigma" => &mut c.capacity_scale_sigma,
             "extra_power_sigma_fraction" => &mut c.extra_power_sigma_fraction,
             "resistance_drift_per_sqrt_s" => &mut c.resistance_drift_per_sqrt_s,

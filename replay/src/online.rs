@@ -75,6 +75,15 @@ impl FileOnline {
         self
     }
 
+    /// The same with an absolute prior on a series resistance beyond the battery model's on
+    /// flights that log no current, Ω at pack level (0: none;
+    /// [`OnlineConfig::extra_resistance_sigma_ohm`]).
+    #[must_use]
+    pub fn with_extra_resistance_sigma_ohm(mut self, ohm: f64) -> Self {
+        self.config.extra_resistance_sigma_ohm = ohm;
+        self
+    }
+
     /// From parameters, a pack model and the filter's configuration.
     pub fn new(params: Params, battery: BatteryModel, config: OnlineConfig) -> Self {
         Self {

@@ -56,6 +56,11 @@ pub struct Args {
     /// `replay --zero-current` does
     #[arg(long)]
     zero_current: bool,
+    /// The online estimator learns a series resistance beyond the battery model's on flights
+    /// without a current, with this one-sigma in ohms for the pack, as `replay
+    /// --extra-resistance-sigma` does (0: off, the default)
+    #[arg(long, value_name = "OHM", default_value_t = 0.0)]
+    extra_resistance_sigma: f64,
 }
 
 /// Runs the subcommand.
@@ -66,6 +71,12 @@ pub fn run(args: Args) -> Result<()> {
             args.input_average
         );
     }
+    if !(args.extra_resistance_sigma.is_finite() && args.extra_resistance_sigma >= 0.0) {
+        anyhow::bail!(
+            "--extra-resistance-sigma takes a resistance in ohms, 0 or more; got {}",
+            args.extra_resistance_sigma
+        );
+    }
     let end = crate::output::seed_end(args.seed, args.scenarios)?;
     let families = select_families(&args.families)?;
     let opts = StudyOptions {
@@ -74,6 +85,7 @@ pub fn run(args: Args) -> Result<()> {
         threads: args.threads,
         config: estimator::online::OnlineConfig {
             zero_current: args.zero_current,
+            extra_resistance_sigma_ohm: args.extra_resistance_sigma,
             ..estimator::online::OnlineConfig::default()
                 .with_opt_ins(args.input_average, args.thrust_limit_end)
         },

@@ -17,7 +17,7 @@ pub(super) struct Pack {
     /// Series resistance of the pack, Ω (the battery model's).
     pub r0_ohm: f64,
     /// Resistance the filter's resistance scale multiplies, Ω: the model's, or the absolute
-    /// prior ([`super::OnlineConfig::resistance_sigma_ohm`]) when that is larger, so that a
+    /// prior ([`super::OnlineConfig::extra_resistance_sigma_ohm`]) when that is larger, so that a
     /// pack whose model has (nearly) no resistance can still learn one.
     pub r_ref_ohm: f64,
     /// RC-pair resistance of the pack, Ω.
