@@ -429,12 +429,10 @@ pub unsafe extern "C" fn hb_online_update_motors(
     phase: u8,
     motor_power_w_or_nan: f64,
 ) -> i32 {
-    if state.is_null() {
-        return HB_ERR_NULL;
-    }
-    // SAFETY: the caller passes a valid `hb_online_state`.
-    let Some(est) = (unsafe { &mut *state }).estimator_mut() else {
-        return HB_ERR_NOT_INITIALISED;
+    // SAFETY: the caller passes a valid `hb_online_state` or null.
+    let est = match unsafe { estimator_of(state) } {
+        Ok(est) => est,
+        Err(code) => return code,
     };
     let known = |x: f64| (!x.is_nan()).then_some(x);
     let e = est.update(&Sample {
@@ -482,12 +480,13 @@ pub unsafe extern "C" fn hb_online_set_plan(
     count: usize,
     reserve_floor_fraction: f64,
 ) -> i32 {
-    if state.is_null() || segments.is_null() {
+    if segments.is_null() {
         return HB_ERR_NULL;
     }
-    // SAFETY: the caller passes a valid `hb_online_state`.
-    let Some(est) = (unsafe { &mut *state }).estimator_mut() else {
-        return HB_ERR_NOT_INITIALISED;
+    // SAFETY: the caller passes a valid `hb_online_state` or null.
+    let est = match unsafe { estimator_of(state) } {
+        Ok(est) => est,
+        Err(code) => return code,
     };
     if count == 0 || count > estimator::online::MAX_PLAN_SEGMENTS {
         return HB_ERR_PLAN;
@@ -537,12 +536,10 @@ pub unsafe extern "C" fn hb_online_observe(
     value: f64,
     sigma: f64,
 ) -> i32 {
-    if state.is_null() {
-        return HB_ERR_NULL;
-    }
-    // SAFETY: the caller passes a valid `hb_online_state`.
-    let Some(est) = (unsafe { &mut *state }).estimator_mut() else {
-        return HB_ERR_NOT_INITIALISED;
+    // SAFETY: the caller passes a valid `hb_online_state` or null.
+    let est = match unsafe { estimator_of(state) } {
+        Ok(est) => est,
+        Err(code) => return code,
     };
     let which = match which {
         HB_STATE_SOC => FilterState::Soc,
@@ -568,12 +565,10 @@ pub unsafe extern "C" fn hb_online_observe(
 /// `state` points to an `HbOnlineState` (or is null, which is `HB_ERR_NULL`).
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn hb_online_zero_current(state: *mut HbOnlineState, enable: i32) -> i32 {
-    if state.is_null() {
-        return HB_ERR_NULL;
-    }
-    // SAFETY: the caller passes a valid `hb_online_state`.
-    let Some(est) = (unsafe { &mut *state }).estimator_mut() else {
-        return HB_ERR_NOT_INITIALISED;
+    // SAFETY: the caller passes a valid `hb_online_state` or null.
+    let est = match unsafe { estimator_of(state) } {
+        Ok(est) => est,
+        Err(code) => return code,
     };
     if est.set_zero_current(enable != 0) {
         HB_OK
@@ -594,18 +589,30 @@ pub unsafe extern "C" fn hb_online_extra_resistance_sigma(
     state: *mut HbOnlineState,
     ohm: f64,
 ) -> i32 {
-    if state.is_null() {
-        return HB_ERR_NULL;
-    }
-    // SAFETY: the caller passes a valid `hb_online_state`.
-    let Some(est) = (unsafe { &mut *state }).estimator_mut() else {
-        return HB_ERR_NOT_INITIALISED;
+    // SAFETY: the caller passes a valid `hb_online_state` or null.
+    let est = match unsafe { estimator_of(state) } {
+        Ok(est) => est,
+        Err(code) => return code,
     };
     if est.set_extra_resistance_sigma_ohm(ohm) {
         HB_OK
     } else {
         HB_ERR_OPTION
     }
+}
+
+/// The estimator behind `state`, or the C error code: `HB_ERR_NULL` for a null pointer,
+/// `HB_ERR_NOT_INITIALISED` before `hb_online_init`.
+/// # Safety
+/// `state` is null or points to an `HbOnlineState` that nothing else borrows for `'a`.
+unsafe fn estimator_of<'a>(state: *mut HbOnlineState) -> Result<&'a mut OnlineEstimator, i32> {
+    if state.is_null() {
+        return Err(HB_ERR_NULL);
+    }
+    // SAFETY: not null, and valid by the caller's promise.
+    (unsafe { &mut *state })
+        .estimator_mut()
+        .ok_or(HB_ERR_NOT_INITIALISED)
 }
 
 /// Bytes of [`HbOnlineState`].
