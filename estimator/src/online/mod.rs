@@ -1214,9 +1214,8 @@ impl OnlineEstimator {
         let e = v + i * (r0 + r1);
         let s0 = self.pack.battery.soc_for_ocv_cell(e / self.pack.cells);
         let (_, slope) = self.pack.ocv_and_slope(s0);
-        // Voltage uncertainty of the open-circuit reading: noise, and the resistance's
-        // uncertainty times the current.
-        // The absolute prior only where no current is logged.
+        // The resistance's prior: a scale of the model's, and on a log without a current an
+        // absolute one beside it (`extra_resistance_sigma_ohm`).
         let r_abs = if logged.is_none() {
             c.extra_resistance_sigma_ohm
         } else {
@@ -1233,6 +1232,8 @@ impl OnlineEstimator {
         } else {
             (1.0, c.resistance_scale_sigma)
         };
+        // Voltage uncertainty of the open-circuit reading: noise, and the resistance's
+        // uncertainty times the current.
         let sigma_e = libm::sqrt(
             c.voltage_sigma_v * c.voltage_sigma_v
                 + (i * r_sigma) * (i * r_sigma)
