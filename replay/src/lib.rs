@@ -168,7 +168,8 @@ pub fn replay_flight(flight: &Flight, config: &ReplayConfig<'_>) -> Result<Fligh
 }
 
 /// A flight's pack (`battery_id`), and the reading its pack's history carries to it (the
-/// flight that measured it and its factor on the model's capacity).
+/// flight that measured it and its factor on the model's capacity): the pack's last reading,
+/// when that one [`carries`](history::CapacityReading::carries).
 fn pack_of(
     flight: &Flight,
     history: Option<&history::PackHistory>,
@@ -183,6 +184,7 @@ fn pack_of(
     let carried = history
         .zip(pack_id.as_deref())
         .and_then(|(h, id)| h.get(id))
+        .filter(|r| r.carries())
         .map(|r| (r.flight.clone(), r.factor()));
     (pack_id, carried)
 }

@@ -406,6 +406,8 @@ struct HistoryJson<'a> {
     /// What it measured, or why nothing.
     reading: Option<&'a crate::history::CapacityReading>,
     reading_factor: Option<f64>,
+    /// Whether the pack's next flight flies with the reading (`history::MIN_SHORTFALL`).
+    reading_carries: Option<bool>,
     no_reading: Option<&'a str>,
 }
 
@@ -486,6 +488,10 @@ impl Replay {
                     carried_factor: f.capacity_carried.as_ref().map(|c| c.1),
                     reading: r.as_ref().ok(),
                     reading_factor: r.as_ref().ok().map(crate::history::CapacityReading::factor),
+                    reading_carries: r
+                        .as_ref()
+                        .ok()
+                        .map(crate::history::CapacityReading::carries),
                     no_reading: r.as_ref().err().map(String::as_str),
                 }),
                 power_source: f.power_source,
@@ -508,6 +514,10 @@ impl Replay {
                             .as_ref()
                             .ok()
                             .map(crate::history::CapacityReading::factor),
+                        reading_carries: r
+                            .as_ref()
+                            .ok()
+                            .map(crate::history::CapacityReading::carries),
                         no_reading: r.as_ref().err().map(String::as_str),
                     }),
                     trace: k
@@ -781,7 +791,7 @@ fn carried_line(from: &str, factor: f64) -> String {
 fn reading_line(r: &Result<crate::history::CapacityReading, String>) -> String {
     match r {
         Ok(r) => format!(
-            "  pack history: measured {:.3} Ah ({:.0} % of the model's {:.3} Ah; {:.3} Ah {} from {:.0} % of the charge to {:.0} %, the end read on the curve at the pack's voltage)\n",
+            "  pack history: measured {:.3} Ah ({:.0} % of the model's {:.3} Ah; {:.3} Ah {} from {:.0} % of the charge to {:.0} %, the end read on the curve at the pack's voltage); {}\n",
             r.capacity_ah,
             100.0 * r.factor(),
             r.model_capacity_ah,
@@ -792,7 +802,15 @@ fn reading_line(r: &Result<crate::history::CapacityReading, String>) -> String {
                 "counted"
             },
             100.0 * r.start_soc,
-            100.0 * r.end_soc
+            100.0 * r.end_soc,
+            if r.carries() {
+                "the pack's next flight flies with it".to_owned()
+            } else {
+                format!(
+                    "within {:.0} % of the model's, so the pack's next flight flies with the model's capacity",
+                    100.0 * crate::history::MIN_SHORTFALL
+                )
+            }
         ),
         Err(why) => format!("  pack history: no capacity reading: {why}\n"),
     }
