@@ -226,17 +226,29 @@ fn config_specs_override_the_defaults_by_name() {
     }
 }
 
+/// A tuning scenario of `family` and `seed` whose packs have faded by more than `fade`, replayed
+/// with the defaults without and with the packs' history.
+fn faded_with_and_without_history(
+    family: &str,
+    seed: u64,
+    fade: f64,
+) -> (replay_eval::ScenarioOutcome, replay_eval::ScenarioOutcome) {
+    let fam = flight_sim::Family::parse(family).unwrap();
+    let p = replay_eval::prepare_scenario(&fam, seed).unwrap();
+    assert!(matches!(p.condition, Condition::CapacityFade { fraction } if fraction > fade));
+    (
+        replay_eval::replay_scenario(&p, &OnlineConfig::default()),
+        replay_eval::replay_scenario_with_history(&p, &OnlineConfig::default(), true),
+    )
+}
+
 /// The packs' history (`replay --pack-history`) on a faded pack (tuning seed 26, an NMC pack
 /// logged at 1 Hz): each pack's first flight is flown exactly as without it and measures a
 /// capacity well below the model's, and its second flight starts from that reading and misses
 /// less at half the flight.
 #[test]
 fn a_packs_history_carries_a_fade_to_its_next_flight() {
-    let fam = flight_sim::Family::parse("nmc/lab-1hz/paper").unwrap();
-    let p = replay_eval::prepare_scenario(&fam, 26).unwrap();
-    assert!(matches!(p.condition, Condition::CapacityFade { fraction } if fraction > 0.15));
-    let without = replay_eval::replay_scenario(&p, &OnlineConfig::default());
-    let with = replay_eval::replay_scenario_with_history(&p, &OnlineConfig::default(), true);
+    let (without, with) = faded_with_and_without_history("nmc/lab-1hz/paper", 26, 0.15);
     let err50 = |f: &replay::FlightReplay| {
         let c = &f.checkpoints[1];
         ((c.predicted_remaining_s.unwrap() - c.true_remaining_s) / f.duration_s()).abs()
@@ -274,11 +286,7 @@ fn a_packs_history_carries_a_fade_to_its_next_flight() {
 /// capacity, exactly as without the history.
 #[test]
 fn a_packs_history_keeps_the_models_capacity_for_a_pack_that_reads_close_to_it() {
-    let fam = flight_sim::Family::parse("lipo/lab-1hz/paper").unwrap();
-    let p = replay_eval::prepare_scenario(&fam, 0).unwrap();
-    assert!(matches!(p.condition, Condition::CapacityFade { fraction } if fraction > 0.05));
-    let without = replay_eval::replay_scenario(&p, &OnlineConfig::default());
-    let with = replay_eval::replay_scenario_with_history(&p, &OnlineConfig::default(), true);
+    let (without, with) = faded_with_and_without_history("lipo/lab-1hz/paper", 0, 0.05);
     for (a, b) in without.flights.iter().zip(&with.flights) {
         assert_eq!(a.name, b.name);
         assert_eq!(a.checkpoints, b.checkpoints, "{}", a.name);
