@@ -387,6 +387,13 @@ pub fn online_settings_line(c: &estimator::online::OnlineConfig, inputs: ReplayI
     }
     if on.is_empty() {
         "online estimator: the defaults".to_owned()
+    } else if inputs.motor_power {
+        format!(
+            "online estimator: {}; band end_soc_sigma {} ({} once the motor commands measure the power)",
+            on.join(", "),
+            c.end_soc_sigma,
+            (c.end_soc_sigma - c.end_soc_sigma_motor_cut).max(0.0)
+        )
     } else {
         format!(
             "online estimator: {}; band end_soc_sigma {}",
@@ -397,7 +404,7 @@ pub fn online_settings_line(c: &estimator::online::OnlineConfig, inputs: ReplayI
 }
 
 /// The same as JSON: `input_average_s`, `thrust_limit_end`, `zero_current`,
-/// `extra_resistance_sigma_ohm`, `end_soc_sigma`,
+/// `extra_resistance_sigma_ohm`, `end_soc_sigma`, `end_soc_sigma_motor_cut`,
 /// `motor_power_sigma_fraction`, `pack_history`, `voltage_only`, `motor_power`.
 pub fn online_settings_json(
     c: &estimator::online::OnlineConfig,
@@ -409,6 +416,7 @@ pub fn online_settings_json(
         "zero_current": c.zero_current,
         "extra_resistance_sigma_ohm": c.extra_resistance_sigma_ohm,
         "end_soc_sigma": c.end_soc_sigma,
+        "end_soc_sigma_motor_cut": c.end_soc_sigma_motor_cut,
         "motor_power_sigma_fraction": c.motor_power_sigma_fraction,
         "pack_history": inputs.pack_history,
         "voltage_only": inputs.voltage_only,

@@ -1235,6 +1235,55 @@ fn the_motor_commands_power_stands_in_for_a_missing_current() {
     assert_eq!(run(&fc, &mut e1), run(&fm, &mut e2));
 }
 
+/// Once the motor commands have measured the power, the band's `end_soc_sigma` is less by
+/// `end_soc_sigma_motor_cut` (not below 0): the same estimates, a narrower band. A flight
+/// without the commands keeps its band to the bit.
+#[test]
+fn the_motor_commands_power_narrows_the_band_by_its_cut() {
+    let keep = OnlineConfig {
+        end_soc_sigma_motor_cut: 0.0,
+        ..OnlineConfig::default()
+    };
+    let cut = OnlineConfig::default();
+    assert!(cut.end_soc_sigma_motor_cut > 0.0);
+    let plain = estimator_with(&keep);
+    let (idle_w, hover_w) = (plain.idle_power_w(), 1.1 * plain.model_hover_power_w());
+    let f = fly(NOMINAL, idle_w, hover_w, 10.0, false, 21);
+    let mut motors = f.clone();
+    for s in &mut motors.samples {
+        if s.phase == Some(FlightPhase::Hover) {
+            s.motor_power_w = Some(hover_w - idle_w);
+        }
+    }
+    let (a, b) = (
+        run(&motors, &mut estimator_with(&keep)),
+        run(&motors, &mut estimator_with(&cut)),
+    );
+    // All of the knee cut off (the default's 0.08 less 0.06 leaves 0.02; with the cut as large
+    // as the knee, none is left).
+    let none = OnlineConfig {
+        end_soc_sigma_motor_cut: 1.0,
+        ..OnlineConfig::default()
+    };
+    let c = run(&motors, &mut estimator_with(&none));
+    for frac in [0.25, 0.5, 0.75] {
+        let k = at_fraction(&motors, frac).0;
+        assert_eq!(a[k].remaining_phase_s, b[k].remaining_phase_s);
+        assert_eq!(a[k].remaining_phase_s, c[k].remaining_phase_s);
+        let (sa, sb, sc) = (
+            sigma_at(&motors, &a, frac),
+            sigma_at(&motors, &b, frac),
+            sigma_at(&motors, &c, frac),
+        );
+        assert!(sc < sb && sb < sa, "{frac}: {sa} → {sb} → {sc}");
+    }
+    let (pa, pb) = (
+        run(&f, &mut estimator_with(&keep)),
+        run(&f, &mut estimator_with(&cut)),
+    );
+    assert_eq!(pa, pb, "no motor commands, no cut");
+}
+
 /// A battery model without series resistance (as a learned LiFePO₄ section can be) cannot
 /// learn a connector's resistance as a scale of it; the absolute prior on a voltage-only log
 /// can, and with a logged current the prior changes nothing.

@@ -1215,6 +1215,7 @@ pub fn config_from_spec(spec: &str) -> Result<OnlineConfig, String> {
             "voltage_bias_drift_cell_v_per_sqrt_s" => &mut c.voltage_bias_drift_cell_v_per_sqrt_s,
             "prediction_model_sigma_fraction" => &mut c.prediction_model_sigma_fraction,
             "end_soc_sigma" => &mut c.end_soc_sigma,
+            "end_soc_sigma_motor_cut" => &mut c.end_soc_sigma_motor_cut,
             "charged_start_soc_sigma" => &mut c.charged_start_soc_sigma,
             "current_scale_sigma" => &mut c.current_scale_sigma,
             "current_offset_sigma_a" => &mut c.current_offset_sigma_a,
