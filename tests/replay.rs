@@ -576,7 +576,8 @@ fn replay_eval_zero_current_moves_only_logs_with_a_current() {
 /// `replay-eval --motor-power` (and `replay --motor-power`): the online estimator gets the
 /// rotors' power read from the held-out flights' motor commands. A voltage-only log's online
 /// errors move, and each flight's `power_source` says what measured its power; the baselines
-/// never change; a 1 Hz lab log without commands does not move; the settings say so.
+/// never change; a 1 Hz lab log without commands does not move, nor does its band; the settings
+/// say so.
 /// `replay --motor-power` refuses parameters without a `[motor]` map.
 #[test]
 fn replay_eval_motor_power_moves_only_logs_with_motor_commands() {
@@ -606,9 +607,22 @@ fn replay_eval_motor_power_moves_only_logs_with_motor_commands() {
         sources(&b)
     );
     assert_eq!(b["online"]["motor_power"], true);
+    assert_eq!(b["online"]["end_soc_sigma_motor_cut"], 0.06);
+    let sigmas = |v: &Value| -> Vec<Value> {
+        v["scenarios"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .flat_map(|sc| sc["replay"]["flights"].as_array().unwrap())
+            .flat_map(|f| f["checkpoints"].as_array().unwrap())
+            .map(|c| c["sigma_s"].clone())
+            .collect()
+    };
     let lab = "lipo/lab-1hz/paper";
     let (a, b) = (run_eval(lab, &[]), run_eval(lab, &["--motor-power"]));
     assert_eq!(errors(&a, "online"), errors(&b, "online"));
+    // No commands logged: the band keeps its knee.
+    assert_eq!(sigmas(&a), sigmas(&b));
     let out = run(&["replay", "--params", &params(), DATA, "--motor-power"]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(2), "{err}");
