@@ -507,14 +507,23 @@ fn run_eval(family: &str, extra: &[&str]) -> Value {
 
 /// Every checkpoint's error of `method` in a `replay-eval` JSON (NaN where it gave none).
 fn errors(v: &Value, method: &str) -> Vec<f64> {
+    checkpoints(v)
+        .map(|c| c["error_pct"][method].as_f64().unwrap_or(f64::NAN))
+        .collect()
+}
+
+/// Every replayed flight of a `replay-eval --json` study.
+fn eval_flights(v: &Value) -> impl Iterator<Item = &Value> {
     v["scenarios"]
         .as_array()
         .unwrap()
         .iter()
         .flat_map(|sc| sc["replay"]["flights"].as_array().unwrap())
-        .flat_map(|f| f["checkpoints"].as_array().unwrap())
-        .map(|c| c["error_pct"][method].as_f64().unwrap_or(f64::NAN))
-        .collect()
+}
+
+/// Every checkpoint of every flight of a `replay-eval --json` study.
+fn checkpoints(v: &Value) -> impl Iterator<Item = &Value> {
+    eval_flights(v).flat_map(|f| f["checkpoints"].as_array().unwrap())
 }
 
 #[test]
@@ -586,15 +595,8 @@ fn replay_eval_motor_power_moves_only_logs_with_motor_commands() {
     assert!(!errors(&a, "online").is_empty());
     assert_ne!(errors(&a, "online"), errors(&b, "online"));
     assert_eq!(errors(&a, "static_model"), errors(&b, "static_model"));
-    let sources = |v: &Value| -> Vec<Value> {
-        v["scenarios"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .flat_map(|sc| sc["replay"]["flights"].as_array().unwrap())
-            .map(|f| f["power_source"].clone())
-            .collect()
-    };
+    let sources =
+        |v: &Value| -> Vec<Value> { eval_flights(v).map(|f| f["power_source"].clone()).collect() };
     let want = |commands: &str| serde_json::json!({"current": false, "commands": commands});
     assert!(
         sources(&a).iter().all(|s| *s == want("not_logged")),
@@ -608,16 +610,8 @@ fn replay_eval_motor_power_moves_only_logs_with_motor_commands() {
     );
     assert_eq!(b["online"]["motor_power"], true);
     assert_eq!(b["online"]["end_soc_sigma_motor_cut"], 0.06);
-    let sigmas = |v: &Value| -> Vec<Value> {
-        v["scenarios"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .flat_map(|sc| sc["replay"]["flights"].as_array().unwrap())
-            .flat_map(|f| f["checkpoints"].as_array().unwrap())
-            .map(|c| c["sigma_s"].clone())
-            .collect()
-    };
+    let sigmas =
+        |v: &Value| -> Vec<Value> { checkpoints(v).map(|c| c["sigma_s"].clone()).collect() };
     let lab = "lipo/lab-1hz/paper";
     let (a, b) = (run_eval(lab, &[]), run_eval(lab, &["--motor-power"]));
     assert_eq!(errors(&a, "online"), errors(&b, "online"));
