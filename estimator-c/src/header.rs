@@ -155,8 +155,9 @@ int32_t hb_online_update(hb_online_state *state, double time_s, double voltage_v
                          double current_a_or_nan, uint8_t phase);
 
 /* hb_online_update with the rotors' electrical power (W, all rotors; NAN when not known) read
- * from the motors' ESC commands through the rig's motor map (hb_motor_power_w): used in hover
- * when the current is NAN, as the current's power would be. */
+ * from the motors' ESC commands through the rig's motor map (hb_motor_power_w): in hover it
+ * measures the power drawn as the current's power does, beside it when the current is given
+ * too; once it has been taken, the band is narrower (its end state-of-charge term less 0.06). */
 int32_t hb_online_update_motors(hb_online_state *state, double time_s, double voltage_v,
                                 double current_a_or_nan, uint8_t phase,
                                 double motor_power_w_or_nan);

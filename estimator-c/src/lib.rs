@@ -417,7 +417,9 @@ pub unsafe extern "C" fn hb_online_update(
 
 /// [`hb_online_update`] with the rotors' electrical power read from the motors' ESC commands
 /// through the rig's motor map ([`hb_motor_power_w`]; W, all rotors together; NaN when not
-/// known): used in hover when the current is NaN, as the current's power would be.
+/// known): in hover it measures the power drawn as the current's power does, beside it when
+/// the current is given too; once it has been taken, the band's knee is narrower
+/// (`OnlineConfig::end_soc_sigma_motor_cut`).
 /// # Safety
 /// `state` points to an `HbOnlineState` (or is null, which is `HB_ERR_NULL`).
 #[unsafe(no_mangle)]

@@ -1225,14 +1225,22 @@ fn the_motor_commands_power_stands_in_for_a_missing_current() {
             "at {frac}: {b} with, {a} without"
         );
     }
-    // With a current logged the commands are not used: the same estimate to the bit.
+    // With a current logged the commands are fused beside it (the estimate moves), and a
+    // command power far from what the current measures is refused as an outlier: the same
+    // estimate to the bit.
     let (fc, _) = flown_with(&config, NOMINAL, 1.2, true, 12);
-    let mut fm = fc.clone();
-    for s in &mut fm.samples {
-        s.motor_power_w = Some(1.0);
-    }
-    let (mut e1, mut e2) = (estimator_with(&config), estimator_with(&config));
-    assert_eq!(run(&fc, &mut e1), run(&fm, &mut e2));
+    let with_commands = |w: f64| {
+        let mut fm = fc.clone();
+        for s in &mut fm.samples {
+            if s.phase == Some(FlightPhase::Hover) {
+                s.motor_power_w = Some(w);
+            }
+        }
+        run(&fm, &mut estimator_with(&config))
+    };
+    let current_only = run(&fc, &mut estimator_with(&config));
+    assert_ne!(current_only, with_commands(hover_w - idle_w));
+    assert_eq!(current_only, with_commands(1.0));
 }
 
 /// Once the motor commands have measured the power, the band's `end_soc_sigma` is less by
