@@ -392,7 +392,7 @@ pub fn online_settings_line(c: &estimator::online::OnlineConfig, inputs: ReplayI
             "online estimator: {}; band end_soc_sigma {} ({} once the motor commands measure the power)",
             on.join(", "),
             c.end_soc_sigma,
-            (c.end_soc_sigma - c.end_soc_sigma_motor_cut).max(0.0)
+            c.end_soc_sigma_with_motor_power()
         )
     } else {
         format!(

@@ -411,6 +411,24 @@ struct HistoryJson<'a> {
     no_reading: Option<&'a str>,
 }
 
+impl<'a> HistoryJson<'a> {
+    /// A flight's history part: the reading it flew with (`carried`) and what it measured.
+    fn of(
+        carried: Option<&'a (String, f64)>,
+        reading: &'a Result<crate::history::CapacityReading, String>,
+    ) -> Self {
+        let ok = reading.as_ref().ok();
+        Self {
+            carried_from: carried.map(|c| c.0.as_str()),
+            carried_factor: carried.map(|c| c.1),
+            reading: ok,
+            reading_factor: ok.map(crate::history::CapacityReading::factor),
+            reading_carries: ok.map(crate::history::CapacityReading::carries),
+            no_reading: reading.as_ref().err().map(String::as_str),
+        }
+    }
+}
+
 #[derive(Serialize)]
 struct ReplayJson<'a> {
     methods: [&'static str; 4],
@@ -483,17 +501,10 @@ impl Replay {
                     .collect(),
                 unavailable: reasons_view(&f.unavailable),
                 final_state: f.final_state.iter().copied().collect(),
-                pack_history: f.capacity_reading.as_ref().map(|r| HistoryJson {
-                    carried_from: f.capacity_carried.as_ref().map(|c| c.0.as_str()),
-                    carried_factor: f.capacity_carried.as_ref().map(|c| c.1),
-                    reading: r.as_ref().ok(),
-                    reading_factor: r.as_ref().ok().map(crate::history::CapacityReading::factor),
-                    reading_carries: r
-                        .as_ref()
-                        .ok()
-                        .map(crate::history::CapacityReading::carries),
-                    no_reading: r.as_ref().err().map(String::as_str),
-                }),
+                pack_history: f
+                    .capacity_reading
+                    .as_ref()
+                    .map(|r| HistoryJson::of(f.capacity_carried.as_ref(), r)),
                 power_source: f.power_source,
             })
             .collect();
@@ -506,20 +517,10 @@ impl Replay {
                 .map(|k| SkippedJson {
                     name: &k.name,
                     reason: &k.reason,
-                    pack_history: k.capacity_reading.as_ref().map(|r| HistoryJson {
-                        carried_from: k.capacity_carried.as_ref().map(|c| c.0.as_str()),
-                        carried_factor: k.capacity_carried.as_ref().map(|c| c.1),
-                        reading: r.as_ref().ok(),
-                        reading_factor: r
-                            .as_ref()
-                            .ok()
-                            .map(crate::history::CapacityReading::factor),
-                        reading_carries: r
-                            .as_ref()
-                            .ok()
-                            .map(crate::history::CapacityReading::carries),
-                        no_reading: r.as_ref().err().map(String::as_str),
-                    }),
+                    pack_history: k
+                        .capacity_reading
+                        .as_ref()
+                        .map(|r| HistoryJson::of(k.capacity_carried.as_ref(), r)),
                     trace: k
                         .trace
                         .as_ref()

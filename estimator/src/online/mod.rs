@@ -504,6 +504,12 @@ impl OnlineConfig {
         }
     }
 
+    /// The band's [`Self::end_soc_sigma`] once the motor commands have measured the power: less
+    /// [`Self::end_soc_sigma_motor_cut`], not below 0.
+    pub fn end_soc_sigma_with_motor_power(&self) -> f64 {
+        (self.end_soc_sigma - self.end_soc_sigma_motor_cut).max(0.0)
+    }
+
     fn validate(&self) -> Result<(), EstimateError> {
         for (what, v) in [
             ("voltage sigma (V)", self.voltage_sigma_v),
@@ -1759,7 +1765,7 @@ impl OnlineEstimator {
         // its cut once the motor commands have measured the power), times the time a full pack
         // lasts at the power it will be reached at.
         let end_soc_sigma = if self.motor_power_measured {
-            (self.config.end_soc_sigma - self.config.end_soc_sigma_motor_cut).max(0.0)
+            self.config.end_soc_sigma_with_motor_power()
         } else {
             self.config.end_soc_sigma
         };
