@@ -252,6 +252,15 @@ pub fn at_least_one_usize(s: &str) -> Result<usize, String> {
     at_least_one(s).and_then(|n| usize::try_from(n).map_err(|_| format!("{s:?} is too large")))
 }
 
+/// `ohm` as a resistance a flag may take (finite, 0 or more), or an error naming `flag`.
+pub fn require_ohms(flag: &str, ohm: f64) -> Result<()> {
+    if ohm.is_finite() && ohm >= 0.0 {
+        Ok(())
+    } else {
+        anyhow::bail!("{flag} takes a resistance in ohms, 0 or more; got {ohm}")
+    }
+}
+
 /// One past the last seed of a study of `scenarios` seeds from `first` (`--seed`,
 /// `--scenarios`), refused when it would pass the largest seed.
 pub fn seed_end(first: u64, scenarios: u64) -> Result<u64> {
@@ -376,6 +385,14 @@ pub fn online_settings_line(c: &estimator::online::OnlineConfig, inputs: ReplayI
             c.extra_resistance_sigma_ohm
         ));
     }
+    let resync = c.resync_resistance_sigma_ohm;
+    if resync != estimator::online::OnlineConfig::default().resync_resistance_sigma_ohm {
+        on.push(if resync > 0.0 {
+            format!("the resistance reopened to {resync} ohm (one sigma) at a run of low voltages")
+        } else {
+            "the resistance never reopened at a run of low voltages".to_owned()
+        });
+    }
     if inputs.pack_history {
         on.push("the packs' history".to_owned());
     }
@@ -404,7 +421,7 @@ pub fn online_settings_line(c: &estimator::online::OnlineConfig, inputs: ReplayI
 }
 
 /// The same as JSON: `input_average_s`, `thrust_limit_end`, `zero_current`,
-/// `extra_resistance_sigma_ohm`, `end_soc_sigma`, `end_soc_sigma_motor_cut`,
+/// `extra_resistance_sigma_ohm`, `resync_resistance_sigma_ohm`, `end_soc_sigma`, `end_soc_sigma_motor_cut`,
 /// `motor_power_sigma_fraction`, `pack_history`, `voltage_only`, `motor_power`.
 pub fn online_settings_json(
     c: &estimator::online::OnlineConfig,
@@ -415,6 +432,7 @@ pub fn online_settings_json(
         "thrust_limit_end": c.thrust_limit_end,
         "zero_current": c.zero_current,
         "extra_resistance_sigma_ohm": c.extra_resistance_sigma_ohm,
+        "resync_resistance_sigma_ohm": c.resync_resistance_sigma_ohm,
         "end_soc_sigma": c.end_soc_sigma,
         "end_soc_sigma_motor_cut": c.end_soc_sigma_motor_cut,
         "motor_power_sigma_fraction": c.motor_power_sigma_fraction,

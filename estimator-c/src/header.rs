@@ -186,6 +186,13 @@ int32_t hb_online_zero_current(hb_online_state *state, int32_t enable);
  * or for a negative or non-finite ohm. */
 int32_t hb_online_extra_resistance_sigma(hb_online_state *state, double ohm);
 
+/* When the voltage falls far below the prediction three samples in a row in flight (a take-off
+ * sag well beyond the blob's resistance: a worn connector, a cold pack), reopens the series
+ * resistance to one-sigma ohm for the pack and takes the voltage again (default 0.1; 0: never).
+ * Call before the first hb_online_update; HB_ERR_OPTION after it or for a negative or
+ * non-finite ohm. */
+int32_t hb_online_resync_resistance_sigma(hb_online_state *state, double ohm);
+
 /* sizeof(hb_online_state). */
 size_t hb_online_state_size(void);
 

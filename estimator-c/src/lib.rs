@@ -603,6 +603,32 @@ pub unsafe extern "C" fn hb_online_extra_resistance_sigma(
     }
 }
 
+/// When the voltage falls far below the prediction three samples in a row in flight (a
+/// take-off sag well beyond the blob's resistance: a worn connector, a cold pack), the filter
+/// reopens the series resistance to one-sigma `ohm` for the pack and takes the voltage again
+/// (`OnlineConfig::resync_resistance_sigma_ohm`; default 0.1, 0: never). Call it after
+/// `hb_online_init` or `hb_online_init_with` and before the first `hb_online_update`. Returns
+/// `HB_OK`, or `HB_ERR_OPTION` once a sample has been taken or for a negative or non-finite
+/// `ohm` (nothing changes).
+/// # Safety
+/// `state` points to an `HbOnlineState` (or is null, which is `HB_ERR_NULL`).
+#[unsafe(no_mangle)]
+pub unsafe extern "C" fn hb_online_resync_resistance_sigma(
+    state: *mut HbOnlineState,
+    ohm: f64,
+) -> i32 {
+    // SAFETY: the caller passes a valid `hb_online_state` or null.
+    let est = match unsafe { estimator_of(state) } {
+        Ok(est) => est,
+        Err(code) => return code,
+    };
+    if est.set_resync_resistance_sigma_ohm(ohm) {
+        HB_OK
+    } else {
+        HB_ERR_OPTION
+    }
+}
+
 /// The estimator behind `state`, or the C error code: `HB_ERR_NULL` for a null pointer,
 /// `HB_ERR_NOT_INITIALISED` before `hb_online_init`.
 /// # Safety

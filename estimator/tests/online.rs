@@ -1248,12 +1248,17 @@ fn the_motor_commands_power_stands_in_for_a_missing_current() {
 /// without the commands keeps its band to the bit.
 #[test]
 fn the_motor_commands_power_narrows_the_band_by_its_cut() {
-    let keep = OnlineConfig {
-        end_soc_sigma_motor_cut: 0.0,
+    // A knee of 0.08 (the default's before session 24), which the default cut leaves 0.04 of.
+    let knee = OnlineConfig {
+        end_soc_sigma: 0.08,
         ..OnlineConfig::default()
     };
-    let cut = OnlineConfig::default();
-    assert!(cut.end_soc_sigma_motor_cut > 0.0);
+    let keep = OnlineConfig {
+        end_soc_sigma_motor_cut: 0.0,
+        ..knee
+    };
+    let cut = knee;
+    assert!(cut.end_soc_sigma_motor_cut > 0.0 && cut.end_soc_sigma_with_motor_power() > 0.0);
     let plain = estimator_with(&keep);
     let (idle_w, hover_w) = (plain.idle_power_w(), 1.1 * plain.model_hover_power_w());
     let f = fly(NOMINAL, idle_w, hover_w, 10.0, false, 21);
@@ -1267,11 +1272,11 @@ fn the_motor_commands_power_narrows_the_band_by_its_cut() {
         run(&motors, &mut estimator_with(&keep)),
         run(&motors, &mut estimator_with(&cut)),
     );
-    // All of the knee cut off (the default's 0.08 less 0.06 leaves 0.02; with the cut as large
+    // All of the knee cut off (0.08 less the default 0.04 leaves 0.04; with the cut as large
     // as the knee, none is left).
     let none = OnlineConfig {
         end_soc_sigma_motor_cut: 1.0,
-        ..OnlineConfig::default()
+        ..knee
     };
     let c = run(&motors, &mut estimator_with(&none));
     for frac in [0.25, 0.5, 0.75] {
@@ -1300,8 +1305,10 @@ fn an_absolute_resistance_prior_learns_a_resistance_the_model_lacks_on_a_voltage
     let mut battery = file_battery();
     battery.series_resistance_cell_ohm = 0.0;
     let make = |sigma_ohm: f64| {
+        // Without the reopening at a run of low voltages, which would take this sag too.
         let config = OnlineConfig {
             extra_resistance_sigma_ohm: sigma_ohm,
+            resync_resistance_sigma_ohm: 0.0,
             ..OnlineConfig::default()
         };
         OnlineEstimator::new(&params(), &battery, &config).unwrap()
@@ -1359,4 +1366,59 @@ fn an_absolute_resistance_prior_learns_a_resistance_the_model_lacks_on_a_voltage
     assert!(late.set_extra_resistance_sigma_ohm(0.05));
     late.update(&f.samples[0]);
     assert!(!late.set_extra_resistance_sigma_ohm(0.0));
+}
+
+#[test]
+fn a_run_of_low_voltages_in_flight_reopens_the_resistance_to_a_connectors() {
+    let make = |sigma_ohm: f64| {
+        let config = OnlineConfig {
+            resync_resistance_sigma_ohm: sigma_ohm,
+            ..OnlineConfig::default()
+        };
+        estimator_with(&config)
+    };
+    let plain = make(0.0);
+    let (idle_w, hover_w) = (plain.idle_power_w(), plain.model_hover_power_w());
+    // The truth: the nominal pack (0.036 Ω) behind 0.1 Ω of worn connector and thin wiring,
+    // the take-off sag 1 V beyond the model's: far outside the resistance's prior.
+    let truth = vary(|p| p.r0_cell_ohm += 0.1 / 3.0);
+    let true_ohm = 3.0 * truth.r0_cell_ohm;
+    for current in [false, true] {
+        let mut f = fly(truth, idle_w, hover_w, 10.0, current, 31);
+        if !current {
+            // The motor commands give the rotors' power with 3 % noise.
+            let mut noise = Noise(0x5eed);
+            for s in &mut f.samples {
+                if s.phase == Some(FlightPhase::Hover) {
+                    s.motor_power_w = Some((hover_w - idle_w) * (1.0 + 0.03 * noise.gauss()));
+                }
+            }
+        }
+        let (mut off, mut on) = (make(0.0), make(0.1));
+        let (a, b) = (run(&f, &mut off), run(&f, &mut on));
+        for frac in [0.25, 0.5, 0.75] {
+            let (k, _) = at_fraction(&f, frac);
+            let (ra, rb) = (a[k].series_resistance_ohm, b[k].series_resistance_ohm);
+            assert!(
+                (rb / true_ohm - 1.0).abs() < 0.15 && ra < 0.6 * true_ohm,
+                "current {current}, at {frac}: {rb} Ω reopened, {ra} Ω not, of {true_ohm} Ω"
+            );
+        }
+        // Without it the sag goes to the curve's offset; with it the offset stays small.
+        let (ob, oa) = (on.curve_offset_v().0.abs(), off.curve_offset_v().0.abs());
+        assert!(
+            ob < oa,
+            "current {current}: offset {ob} V reopened, {oa} V not"
+        );
+    }
+    // A pack as the model says sets nothing aside: the same estimates to the bit.
+    let f = fly(NOMINAL, idle_w, hover_w, 10.0, false, 32);
+    let (mut off, mut on) = (make(0.0), make(0.1));
+    assert_eq!(run(&f, &mut off), run(&f, &mut on));
+    // A voltage above the prediction (a pack whose curve sits 0.15 V per cell high) is not a
+    // resistance: it is never reopened for it.
+    let high = vary(|p| p.ocv_offset_cell_v = 0.15);
+    let f = fly(high, idle_w, hover_w, 10.0, true, 33);
+    let (mut off, mut on) = (make(0.0), make(0.1));
+    assert_eq!(run(&f, &mut off), run(&f, &mut on));
 }

@@ -1206,6 +1206,7 @@ pub fn config_from_spec(spec: &str) -> Result<OnlineConfig, String> {
             "initial_soc_sigma" => &mut c.initial_soc_sigma,
             "resistance_scale_sigma" => &mut c.resistance_scale_sigma,
             "extra_resistance_sigma_ohm" => &mut c.extra_resistance_sigma_ohm,
+            "resync_resistance_sigma_ohm" => &mut c.resync_resistance_sigma_ohm,
             "capacity_scale_sigma" => &mut c.capacity_scale_sigma,
             "extra_power_sigma_fraction" => &mut c.extra_power_sigma_fraction,
             "resistance_drift_per_sqrt_s" => &mut c.resistance_drift_per_sqrt_s,

@@ -145,19 +145,22 @@ impl ReplayConfig<'_> {
 /// end on or off and samples averaged over `input_average_s` (0: none), and the band that goes
 /// with them ([`online::FileOnline::with_opt_ins`]), the current sensor's zero read or not, and
 /// the absolute resistance prior of voltage-only flights (`extra_resistance_sigma_ohm`, 0:
-/// none), or why it cannot run.
+/// none) and the resistance's reopening at a run of low voltages
+/// (`resync_resistance_sigma_ohm`, 0: never), or why it cannot run.
 pub fn online_from_file(
     file: &estimator::file::ParamsFile,
     thrust_limit_end: bool,
     input_average_s: f64,
     zero_current: bool,
     extra_resistance_sigma_ohm: f64,
+    resync_resistance_sigma_ohm: f64,
 ) -> Result<Box<dyn OnlineBuilder>, String> {
     online::FileOnline::from_file(file).map(|o| {
         Box::new(
             o.with_opt_ins(input_average_s, thrust_limit_end)
                 .with_zero_current(zero_current)
-                .with_extra_resistance_sigma_ohm(extra_resistance_sigma_ohm),
+                .with_extra_resistance_sigma_ohm(extra_resistance_sigma_ohm)
+                .with_resync_resistance_sigma_ohm(resync_resistance_sigma_ohm),
         ) as Box<dyn OnlineBuilder>
     })
 }

@@ -84,6 +84,15 @@ impl FileOnline {
         self
     }
 
+    /// The same with the series resistance reopened to this one-sigma, Ω at pack level, at a
+    /// run of voltages far below the prediction in flight (0: never;
+    /// [`OnlineConfig::resync_resistance_sigma_ohm`]).
+    #[must_use]
+    pub fn with_resync_resistance_sigma_ohm(mut self, ohm: f64) -> Self {
+        self.config.resync_resistance_sigma_ohm = ohm;
+        self
+    }
+
     /// From parameters, a pack model and the filter's configuration.
     pub fn new(params: Params, battery: BatteryModel, config: OnlineConfig) -> Self {
         Self {

@@ -40,7 +40,7 @@ pub struct Args {
     out: Option<PathBuf>,
     /// End the online estimator's predictions also where the rotors run out of thrust (the
     /// parameters' `[thrust_limit]`, with 3 % of headroom for the controller), on flights that
-    /// log their current; the one-sigma band is then sized for it (`end_soc_sigma` 0.06, 0.04
+    /// log their current; the one-sigma band is then sized for it (`end_soc_sigma` 0.04, 0.03
     /// with `--input-average`). Off by default: on simulated held-out flights it lowers the
     /// median error at half the flight but makes some flights worse
     /// (docs/evidence/online-estimator.md, "The thrust-limit end on flights with a current, and
@@ -51,7 +51,7 @@ pub struct Args {
     /// them: a noisy current sensor (a flight controller's Hall module at 10 Hz or faster)
     /// otherwise makes it learn too small a series resistance. Logs slower than the window are
     /// taken sample by sample. The one-sigma band is then sized for averaged samples
-    /// (`end_soc_sigma` 0.06 instead of 0.08; 0.04 with `--thrust-limit-end`). Off (0) by default; 1 s lowered the median
+    /// (`end_soc_sigma` 0.05 instead of 0.06; 0.03 with `--thrust-limit-end`). Off (0) by default; 1 s lowered the median
     /// error at half the flight on all nine simulated held-out sets, with some flights worse
     /// (docs/evidence/online-estimator.md, "Averaging the samples").
     #[arg(long, value_name = "S", default_value_t = 0.0)]
@@ -91,6 +91,14 @@ pub struct Args {
     /// voltage-only logs").
     #[arg(long, value_name = "OHM", default_value_t = 0.0)]
     extra_resistance_sigma: f64,
+    /// When the voltage falls far below the online estimator's prediction three samples in a
+    /// row in flight (a take-off sag well beyond the battery model's: a worn connector, thin
+    /// wiring, a cold pack), reopen the series resistance to this one-sigma in ohms for the
+    /// pack and take the voltage again, instead of setting it aside and reading the sag as a
+    /// curve offset later. 0 turns it off. The default, 0.1, was chosen on simulated flights
+    /// (docs/evidence/online-estimator.md, "Session 24").
+    #[arg(long, value_name = "OHM", default_value_t = estimator::online::OnlineConfig::default().resync_resistance_sigma_ohm)]
+    resync_resistance_sigma: f64,
 }
 
 /// Runs the subcommand.
@@ -137,18 +145,15 @@ pub fn run(args: Args) -> Result<()> {
             args.input_average
         );
     }
-    if !(args.extra_resistance_sigma.is_finite() && args.extra_resistance_sigma >= 0.0) {
-        anyhow::bail!(
-            "--extra-resistance-sigma takes a resistance in ohms, 0 or more; got {}",
-            args.extra_resistance_sigma
-        );
-    }
+    crate::output::require_ohms("--extra-resistance-sigma", args.extra_resistance_sigma)?;
+    crate::output::require_ohms("--resync-resistance-sigma", args.resync_resistance_sigma)?;
     let online = replay::online_from_file(
         &file,
         args.thrust_limit_end,
         args.input_average,
         args.zero_current,
         args.extra_resistance_sigma,
+        args.resync_resistance_sigma,
     );
     // PX4 set up for the pack: the chemistry of the [battery] section (PX4's defaults without)
     let chemistry = file
@@ -166,6 +171,7 @@ pub fn run(args: Args) -> Result<()> {
     let settings = estimator::online::OnlineConfig {
         zero_current: args.zero_current,
         extra_resistance_sigma_ohm: args.extra_resistance_sigma,
+        resync_resistance_sigma_ohm: args.resync_resistance_sigma,
         ..estimator::online::OnlineConfig::default()
             .with_opt_ins(args.input_average, args.thrust_limit_end)
     };

@@ -61,6 +61,11 @@ pub struct Args {
     /// --extra-resistance-sigma` does (0: off, the default)
     #[arg(long, value_name = "OHM", default_value_t = 0.0)]
     extra_resistance_sigma: f64,
+    /// The online estimator reopens the series resistance to this one-sigma in ohms for the
+    /// pack when the voltage falls far below its prediction three samples in a row in flight
+    /// (a worn connector, a cold pack), as `replay --resync-resistance-sigma` does (0: off)
+    #[arg(long, value_name = "OHM", default_value_t = estimator::online::OnlineConfig::default().resync_resistance_sigma_ohm)]
+    resync_resistance_sigma: f64,
 }
 
 /// Runs the subcommand.
@@ -71,12 +76,8 @@ pub fn run(args: Args) -> Result<()> {
             args.input_average
         );
     }
-    if !(args.extra_resistance_sigma.is_finite() && args.extra_resistance_sigma >= 0.0) {
-        anyhow::bail!(
-            "--extra-resistance-sigma takes a resistance in ohms, 0 or more; got {}",
-            args.extra_resistance_sigma
-        );
-    }
+    crate::output::require_ohms("--extra-resistance-sigma", args.extra_resistance_sigma)?;
+    crate::output::require_ohms("--resync-resistance-sigma", args.resync_resistance_sigma)?;
     let end = crate::output::seed_end(args.seed, args.scenarios)?;
     let families = select_families(&args.families)?;
     let opts = StudyOptions {
@@ -86,6 +87,7 @@ pub fn run(args: Args) -> Result<()> {
         config: estimator::online::OnlineConfig {
             zero_current: args.zero_current,
             extra_resistance_sigma_ohm: args.extra_resistance_sigma,
+            resync_resistance_sigma_ohm: args.resync_resistance_sigma,
             ..estimator::online::OnlineConfig::default()
                 .with_opt_ins(args.input_average, args.thrust_limit_end)
         },

@@ -110,6 +110,11 @@ int main(int argc, char **argv) {
     if (hb_online_extra_resistance_sigma(NULL, 0.02) != HB_ERR_NULL) return 8;
     if (hb_online_extra_resistance_sigma(&state, -1.0) != HB_ERR_OPTION) return 8;
     if (hb_online_extra_resistance_sigma(&state, NAN) != HB_ERR_OPTION) return 8;
+    if (hb_online_resync_resistance_sigma(NULL, 0.1) != HB_ERR_NULL) return 8;
+    if (hb_online_resync_resistance_sigma(&state, -1.0) != HB_ERR_OPTION) return 8;
+    if (hb_online_resync_resistance_sigma(&state, INFINITY) != HB_ERR_OPTION) return 8;
+    /* The default, set again: the same estimates as the Rust replay's. */
+    if (hb_online_resync_resistance_sigma(&state, 0.1) != HB_OK) return 8;
     /* With the opt-ins, the current sensor's zero is read on the ground before take-off. */
     if (argc == 5 && hb_online_zero_current(&state, 1) != HB_OK) return 8;
     plan[0].kind = HB_SEGMENT_HOVER_MIN;
@@ -144,6 +149,7 @@ int main(int argc, char **argv) {
             /* Too late to switch the zero read once a sample is taken. */
             if (hb_online_zero_current(&state, 0) != HB_ERR_OPTION) return 8;
             if (hb_online_extra_resistance_sigma(&state, 0.02) != HB_ERR_OPTION) return 8;
+            if (hb_online_resync_resistance_sigma(&state, 0.0) != HB_ERR_OPTION) return 8;
             /* The pack's last flight measured 90 % of the model's capacity (one-sigma 4 %). */
             if (hb_online_observe(&state, 99u, 0.9, 0.04) != HB_ERR_OBSERVE) return 7;
             if (hb_online_observe(&state, HB_STATE_CAPACITY_SCALE, 0.9, 0.0) != HB_ERR_OBSERVE)

@@ -20,6 +20,10 @@ pub(super) struct Pack {
     /// prior ([`super::OnlineConfig::extra_resistance_sigma_ohm`]) when that is larger, so that a
     /// pack whose model has (nearly) no resistance can still learn one.
     pub r_ref_ohm: f64,
+    /// The reference at the first sample, Ω: the resistance scale's bounds and random walk are
+    /// fractions of it, so that a reference raised later (a resynchronisation that reopens
+    /// the resistance) leaves them as they were in ohms.
+    pub r_init_ohm: f64,
     /// RC-pair resistance of the pack, Ω.
     pub r1_ohm: f64,
     pub tau_s: f64,
@@ -36,6 +40,7 @@ impl Pack {
             capacity_ah: b.rated_capacity_ah,
             r0_ohm: n * b.series_resistance_cell_ohm,
             r_ref_ohm: n * b.series_resistance_cell_ohm,
+            r_init_ohm: n * b.series_resistance_cell_ohm,
             r1_ohm: n * b.rc_resistance_cell_ohm,
             tau_s: b.rc_time_constant_s,
             cutoff_v: n * b.cutoff_cell_v,
