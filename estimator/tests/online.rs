@@ -1396,6 +1396,18 @@ fn a_run_of_low_voltages_in_flight_reopens_the_resistance_to_a_connectors() {
         }
         let (mut off, mut on) = (make(0.0), make(0.1));
         let (a, b) = (run(&f, &mut off), run(&f, &mut on));
+        // The reopening is flagged once, where the run of low voltages began, right after
+        // take-off.
+        let flagged: Vec<f64> = b
+            .iter()
+            .zip(&f.samples)
+            .filter(|(e, _)| e.flags & Estimate::FLAG_RESYNC != 0)
+            .map(|(_, s)| s.time_s)
+            .collect();
+        assert!(
+            flagged.len() == 1 && flagged[0] > 5.0 && flagged[0] < 7.0,
+            "current {current}: flagged at {flagged:?} s"
+        );
         for frac in [0.25, 0.5, 0.75] {
             let (k, _) = at_fraction(&f, frac);
             let (ra, rb) = (a[k].series_resistance_ohm, b[k].series_resistance_ohm);

@@ -688,7 +688,9 @@ impl Estimate {
     pub const FLAG_AT_CUTOFF: u32 = 1 << 4;
     /// The pack cannot deliver the current phase's power any more.
     pub const FLAG_POWER_UNREACHABLE: u32 = 1 << 5;
-    /// The filter resynchronised after a run of outliers.
+    /// The filter resynchronised after a run of outliers: it widened the state of charge and
+    /// took the voltage, or it reopened the series resistance and the voltage was then within
+    /// its gate ([`OnlineConfig::resync_resistance_sigma_ohm`]).
     pub const FLAG_RESYNC: u32 = 1 << 6;
     /// A forward integration stopped at [`MAX_SIM_STEPS`]: the remaining time is a lower
     /// bound.
@@ -1449,10 +1451,11 @@ impl OnlineEstimator {
         }
     }
 
-    /// At a resynchronisation where the voltage fell below the prediction while the pack
-    /// drives the rotors: reopen the series resistance to its resynchronisation prior
-    /// ([`OnlineConfig::resync_resistance_sigma_ohm`]), raising the reference it scales when
-    /// that is smaller, so that a connector's or a worn pack's resistance can be taken.
+    /// At a run of voltages outside the gate and below the prediction while the pack drives
+    /// the rotors: reopen the series resistance to
+    /// [`OnlineConfig::resync_resistance_sigma_ohm`], raising the reference its scale
+    /// multiplies when that is smaller, so that a connector's or a cold pack's resistance can
+    /// be taken. False, and nothing changed, when it is off or no current flows.
     fn reopen_resistance(&mut self, logged: Option<f64>) -> bool {
         let sigma = self.config.resync_resistance_sigma_ohm;
         let i = logged.unwrap_or_else(|| self.model_current(&self.x).0);
@@ -1493,7 +1496,9 @@ impl OnlineEstimator {
             if reopened {
                 (y, h) = self.innovation(v, logged);
             }
-            if !reopened || outside(self, y, &h) {
+            if reopened && !outside(self, y, &h) {
+                self.flags |= Estimate::FLAG_RESYNC;
+            } else {
                 if self.outliers_in_row < c.outliers_before_resync {
                     self.flags |= Estimate::FLAG_OUTLIER;
                     self.samples_rejected = self.samples_rejected.saturating_add(1);
