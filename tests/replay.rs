@@ -454,20 +454,7 @@ fn pack_history_carries_a_reading_to_the_packs_next_flight() {
 /// static model still have one, and the static model's is the same as with the current.
 #[test]
 fn replay_eval_voltage_only_drops_the_current_and_keeps_the_flights() {
-    let run_eval = |extra: &[&str]| -> Value {
-        let mut a = vec![
-            "replay-eval",
-            "--scenarios",
-            "1",
-            "--seed",
-            "0",
-            "--families",
-            "lipo/lab-1hz/paper",
-            "--json",
-        ];
-        a.extend_from_slice(extra);
-        serde_json::from_str(&ok(&a)).unwrap()
-    };
+    let run_eval = |extra: &[&str]| run_eval_seed("0", "lipo/lab-1hz/paper", extra);
     let half = |v: &Value, m: &str| -> Option<f64> {
         let g = v["groups"]
             .as_array()
@@ -496,8 +483,21 @@ const ONE_SCENARIO: [&str; 5] = ["replay-eval", "--scenarios", "1", "--seed", "2
 
 /// `replay-eval` on [`ONE_SCENARIO`] of `family` with `extra` flags, as JSON.
 fn run_eval(family: &str, extra: &[&str]) -> Value {
-    let mut a = ONE_SCENARIO.to_vec();
-    a.extend(["--families", family, "--json"]);
+    run_eval_seed("25", family, extra)
+}
+
+/// `replay-eval` on one scenario, `seed`, of `family` with `extra` flags, as JSON.
+fn run_eval_seed(seed: &str, family: &str, extra: &[&str]) -> Value {
+    let mut a = vec![
+        "replay-eval",
+        "--scenarios",
+        "1",
+        "--seed",
+        seed,
+        "--families",
+        family,
+        "--json",
+    ];
     a.extend_from_slice(extra);
     serde_json::from_str(&ok(&a)).unwrap()
 }
@@ -660,20 +660,7 @@ fn replay_eval_extra_resistance_sigma_moves_only_logs_without_a_current() {
 /// resistance is refused.
 #[test]
 fn replay_eval_resync_resistance_sigma_reopens_the_resistance_by_default() {
-    let eval = |extra: &[&str]| -> Value {
-        let mut a = vec![
-            "replay-eval",
-            "--scenarios",
-            "1",
-            "--seed",
-            "57",
-            "--families",
-            "lipo/fc-10hz/paper",
-            "--json",
-        ];
-        a.extend_from_slice(extra);
-        serde_json::from_str(&ok(&a)).unwrap()
-    };
+    let eval = |extra: &[&str]| run_eval_seed("57", "lipo/fc-10hz/paper", extra);
     let (on, off) = (eval(&[]), eval(&["--resync-resistance-sigma", "0"]));
     assert_eq!(on["online"]["resync_resistance_sigma_ohm"], 0.1);
     assert_eq!(off["online"]["resync_resistance_sigma_ohm"], 0.0);

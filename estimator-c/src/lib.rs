@@ -568,15 +568,7 @@ pub unsafe extern "C" fn hb_online_observe(
 #[unsafe(no_mangle)]
 pub unsafe extern "C" fn hb_online_zero_current(state: *mut HbOnlineState, enable: i32) -> i32 {
     // SAFETY: the caller passes a valid `hb_online_state` or null.
-    let est = match unsafe { estimator_of(state) } {
-        Ok(est) => est,
-        Err(code) => return code,
-    };
-    if est.set_zero_current(enable != 0) {
-        HB_OK
-    } else {
-        HB_ERR_OPTION
-    }
+    unsafe { set_option(state, |est| est.set_zero_current(enable != 0)) }
 }
 
 /// On a log without a current, lets the filter learn a series resistance beyond the blob's,
@@ -592,15 +584,7 @@ pub unsafe extern "C" fn hb_online_extra_resistance_sigma(
     ohm: f64,
 ) -> i32 {
     // SAFETY: the caller passes a valid `hb_online_state` or null.
-    let est = match unsafe { estimator_of(state) } {
-        Ok(est) => est,
-        Err(code) => return code,
-    };
-    if est.set_extra_resistance_sigma_ohm(ohm) {
-        HB_OK
-    } else {
-        HB_ERR_OPTION
-    }
+    unsafe { set_option(state, |est| est.set_extra_resistance_sigma_ohm(ohm)) }
 }
 
 /// When the voltage falls far below the prediction three samples in a row in flight (a
@@ -618,14 +602,28 @@ pub unsafe extern "C" fn hb_online_resync_resistance_sigma(
     ohm: f64,
 ) -> i32 {
     // SAFETY: the caller passes a valid `hb_online_state` or null.
-    let est = match unsafe { estimator_of(state) } {
-        Ok(est) => est,
-        Err(code) => return code,
-    };
-    if est.set_resync_resistance_sigma_ohm(ohm) {
-        HB_OK
-    } else {
-        HB_ERR_OPTION
+    unsafe { set_option(state, |est| est.set_resync_resistance_sigma_ohm(ohm)) }
+}
+
+/// Sets one of the estimator's options before its first sample through `set` (the
+/// estimator's setter, false when refused): `HB_OK`, `HB_ERR_OPTION` when refused, or
+/// [`estimator_of`]'s error.
+/// # Safety
+/// As [`estimator_of`].
+unsafe fn set_option(
+    state: *mut HbOnlineState,
+    set: impl FnOnce(&mut OnlineEstimator) -> bool,
+) -> i32 {
+    // SAFETY: forwarded from the caller.
+    match unsafe { estimator_of(state) } {
+        Ok(est) => {
+            if set(est) {
+                HB_OK
+            } else {
+                HB_ERR_OPTION
+            }
+        }
+        Err(code) => code,
     }
 }
 
