@@ -840,11 +840,7 @@ impl OnlineEstimator {
     /// interface's `hb_online_extra_resistance_sigma` calls). Returns false, and changes
     /// nothing, once a sample has been taken or for a value that is not finite or is negative.
     pub fn set_extra_resistance_sigma_ohm(&mut self, ohm: f64) -> bool {
-        if self.initialised || !(ohm.is_finite() && ohm >= 0.0) {
-            return false;
-        }
-        self.config.extra_resistance_sigma_ohm = ohm;
-        true
+        self.set_ohms_before_first_sample(ohm, |c| &mut c.extra_resistance_sigma_ohm)
     }
 
     /// Sets [`OnlineConfig::resync_resistance_sigma_ohm`] before the first sample (what the C
@@ -852,10 +848,20 @@ impl OnlineEstimator {
     /// Returns false, and changes nothing, once a sample has been taken or for a value that is
     /// not finite or is negative.
     pub fn set_resync_resistance_sigma_ohm(&mut self, ohm: f64) -> bool {
+        self.set_ohms_before_first_sample(ohm, |c| &mut c.resync_resistance_sigma_ohm)
+    }
+
+    /// Sets the resistance `field` picks from the configuration to `ohm` before the first
+    /// sample; false, and nothing changed, after it or for a value not finite or negative.
+    fn set_ohms_before_first_sample(
+        &mut self,
+        ohm: f64,
+        field: impl FnOnce(&mut OnlineConfig) -> &mut f64,
+    ) -> bool {
         if self.initialised || !(ohm.is_finite() && ohm >= 0.0) {
             return false;
         }
-        self.config.resync_resistance_sigma_ohm = ohm;
+        *field(&mut self.config) = ohm;
         true
     }
 
