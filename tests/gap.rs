@@ -556,3 +556,64 @@ fn effects_the_flights_cannot_tell_apart_are_listed() {
     }
     assert!(text.contains("these flights cannot tell it from the verdict"));
 }
+
+#[test]
+fn the_current_steps_read_a_connectors_resistance_that_the_effect_adds() {
+    // The same packs and missions (seed 3) with and without a 50 mΩ connector: each pack's
+    // steps read 50 mΩ more, within a few standard errors, and the text says what the JSON says.
+    let dir = tempfile::tempdir().unwrap();
+    let read = |effect: &str| {
+        let set = dir.path().join(effect.replace('=', "-"));
+        ok(&[
+            "simulate-flights",
+            "-o",
+            set.to_str().unwrap(),
+            "--family",
+            "nmc/fc-10hz/paper",
+            "--effect",
+            effect,
+            "--seed",
+            "3",
+        ]);
+        let (train, held) = (set.join("train"), set.join("heldout"));
+        let args = [
+            "gap",
+            train.to_str().unwrap(),
+            "--holdout",
+            held.to_str().unwrap(),
+        ];
+        let v = json(&[&args[..], &["--json"]].concat());
+        let text = ok(&args);
+        (v, text)
+    };
+    let (clean, clean_text) = read("none");
+    let (worn, _) = read("internal_resistance=0.05");
+    let steps = |v: &Value| -> Vec<(String, f64, f64, u64)> {
+        v["step_resistances"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| {
+                (
+                    s["battery_type"].as_str().unwrap().to_owned(),
+                    s["pack_ohm"].as_f64().unwrap(),
+                    s["sigma_ohm"].as_f64().unwrap(),
+                    s["steps"].as_u64().unwrap(),
+                )
+            })
+            .collect()
+    };
+    let (a, b) = (steps(&clean), steps(&worn));
+    assert_eq!(a.len(), 2, "{a:?}");
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(x.0, y.0);
+        assert!(x.3 >= 3 && y.3 >= 3, "{x:?} {y:?}");
+        let extra = y.1 - x.1;
+        let sigma = x.2.hypot(y.2);
+        assert!((extra - 0.05).abs() < 3.0 * sigma + 0.002, "{x:?} {y:?}");
+    }
+    // The text line per pack carries the same number, per cell.
+    let per_cell_mohm = a[0].1 / 3.0 * 1000.0;
+    let want = format!("series resistance of {per_cell_mohm:.1} ±");
+    assert!(clean_text.contains(&want), "{want} in {clean_text}");
+}

@@ -723,6 +723,10 @@ pub struct Diagnosis {
     pub r#where: Where,
     /// The batteries learned from the training flights, one per battery type.
     pub batteries: Vec<BatteryFit>,
+    /// The series resistance each training battery type's current steps show
+    /// ([`crate::steps`]; types with a logged current and enough steps): reported beside the
+    /// learned battery, not part of the verdict or of any prediction.
+    pub step_resistances: Vec<crate::steps::StepResistance>,
     /// Baseline errors (learned battery, no effect), training and held-out.
     pub baseline: TrainHeld,
     /// Errors with the selected effects, training and held-out.
@@ -1972,6 +1976,7 @@ pub fn diagnose_with<C: PowerCurve>(
         healthy_resistance,
         r#where,
         batteries: batteries.fits.clone(),
+        step_resistances: crate::steps::step_resistances(batteries, train),
         baseline,
         after,
         headline: HeadlineGap {

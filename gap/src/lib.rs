@@ -73,6 +73,7 @@ pub mod logs;
 pub mod model;
 pub mod params_link;
 pub mod stats;
+pub mod steps;
 pub mod summary;
 pub mod systematic;
 

@@ -1,5 +1,7 @@
 //! Traces the online estimator through one scenario's held-out flights: at every 5 % of each
-//! flight the predicted and true remaining time and the filter's state.
+//! flight (and at its first three samples) the predicted and true remaining time, the filter's
+//! state and the motor commands' power, under flight-sim's record of the flight (its pack's
+//! true capacity, state of charge from start to end, mean series resistance and power).
 //! `cargo run --release -p replay-eval --example trace -- FAMILY SEED [STEP]`
 //! (`SWEEP_SENSORS=ideal` and the like: calibrated sensors; `SWEEP_CFG`: the estimator's
 //! settings; both as in the sweep example). `SWEEP_DROP_CURRENT=1` replays the flights without
@@ -32,7 +34,8 @@ fn main() {
         .params
         .motor
         .filter(|_| std::env::var("SWEEP_MOTOR_POWER").is_ok_and(|v| v == "1"));
-    for (flight, battery) in &p.flights {
+    for (k, (flight, battery)) in p.flights.iter().enumerate() {
+        let truth = &p.truths[k];
         let mut flight = flight.clone();
         if drop_current {
             flight.samples.current_a = None;
@@ -59,6 +62,15 @@ fn main() {
             battery.chemistry
         );
         println!(
+            "  truth: capacity {:.3} Ah, soc {:.3} -> {:.3}, series {:.4} ohm, power {:.1} W (hover {:.1} W)",
+            truth.capacity_ah,
+            truth.start_soc,
+            truth.end_soc,
+            truth.mean_airborne_series_ohm,
+            truth.mean_airborne_power_w,
+            truth.mean_hover_power_w,
+        );
+        println!(
             "  ocv {:?} rc {:.4}/{:.0}s cutoff {:.3}",
             battery.ocv_cell_v.map(|v| (v * 1000.0).round() / 1000.0),
             battery.rc_resistance_cell_ohm,
@@ -66,7 +78,7 @@ fn main() {
             battery.cutoff_cell_v
         );
         println!(
-            "  frac      t   true   pred  sigma  err%    V      I phase   | soc   cap_ah  r_ohm  extra_w  bias_v  Ah_used"
+            "  frac      t   true   pred  sigma  err%    V      I phase   | soc   cap_ah  r_ohm  extra_w  bias_v  Ah_used  motor_w"
         );
         let s = &flight.samples;
         let mut next = 0.0;
@@ -93,8 +105,11 @@ fn main() {
             };
             let r = pred.update(&sample);
             let frac = (t - span.takeoff_s) / span.duration_s();
-            if frac >= next {
-                next += step;
+            // The first three samples too (where the filter starts).
+            if frac >= next || k < 3 {
+                if frac >= next {
+                    next += step;
+                }
                 let st = pred.final_state();
                 let get = |n: &str| st.iter().find(|x| x.0 == n).map_or(f64::NAN, |x| x.1);
                 let (pr, sg) = r.map_or((f64::NAN, f64::NAN), |r| {
@@ -102,7 +117,7 @@ fn main() {
                 });
                 let tr = span.end_s - t;
                 println!(
-                    "  {frac:4.2} {t:7.0} {tr:6.0} {pr:6.0} {sg:6.0} {:+5.1} {:6.2} {:6.2} {:8} | {:.3} {:.3} {:.4} {:+.2} {:+.3} {:.3}",
+                    "  {frac:4.2} {t:7.0} {tr:6.0} {pr:6.0} {sg:6.0} {:+5.1} {:6.2} {:6.2} {:8} | {:.3} {:.3} {:.4} {:+.2} {:+.3} {:.3} {:6.1}",
                     (pr - tr) / span.duration_s() * 100.0,
                     sample.voltage_v,
                     sample.current_a.unwrap_or(f64::NAN),
@@ -113,6 +128,7 @@ fn main() {
                     get("extra_power_w"),
                     get("curve_offset_v"),
                     used_ah,
+                    sample.motor_power_w.unwrap_or(f64::NAN),
                 );
             }
         }

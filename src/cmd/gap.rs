@@ -170,6 +170,7 @@ struct Json<'a> {
     rejected: &'a [gap::diagnose::Rejected],
     look_alikes: &'a [gap::diagnose::LookAlike],
     batteries: &'a [gap::battery::BatteryFit],
+    step_resistances: &'a [gap::steps::StepResistance],
     r#where: &'a gap::diagnose::Where,
     baseline: &'a gap::diagnose::TrainHeld,
     after: &'a gap::diagnose::TrainHeld,
@@ -464,6 +465,7 @@ pub fn run(args: Args) -> Result<()> {
             rejected: &d.rejected,
             look_alikes: &d.look_alikes,
             batteries: &d.batteries,
+            step_resistances: &d.step_resistances,
             r#where: &d.r#where,
             baseline: &d.baseline,
             after: &d.after,
@@ -533,6 +535,28 @@ pub fn run(args: Args) -> Result<()> {
         );
         for w in &b.warnings {
             println!("  warning: {w}");
+        }
+        if let Some(st) = d
+            .step_resistances
+            .iter()
+            .find(|s| s.battery_type == b.battery_type)
+        {
+            println!(
+                "  its current's {} steps show a series resistance of {:.1} ± {:.1} mΩ per cell (wiring included){}",
+                st.steps,
+                st.cell_ohm() * 1000.0,
+                st.sigma_ohm / f64::from(st.cells.max(1)) * 1000.0,
+                if st.above_healthy() {
+                    format!(
+                        ", above the {:.1} mΩ a healthy {} pack of {:.2} Ah has at most",
+                        st.healthy_top_cell_ohm * 1000.0,
+                        b.prior.name(),
+                        b.rated_capacity_ah
+                    )
+                } else {
+                    String::new()
+                }
+            );
         }
         if let (Some(u), Some(lost)) = (b.usable_capacity_ah, b.capacity_lost_fraction()) {
             println!(
