@@ -617,3 +617,44 @@ fn the_current_steps_read_a_connectors_resistance_that_the_effect_adds() {
     let want = format!("series resistance of {per_cell_mohm:.1} ±");
     assert!(clean_text.contains(&want), "{want} in {clean_text}");
 }
+
+#[test]
+fn a_voltage_only_set_without_a_rig_estimates_the_hover_power_its_current_would_show() {
+    // The same seed flown with a 10 Hz current log and as a 5 Hz voltage-only log, diagnosed
+    // without a rig: the voltage-only estimate (from the voltage's fall) lies within a fifth of
+    // the current's mean hover power. Before session 25 every voltage-only set that flew to its
+    // cut-off estimated 3.6 kW for a 0.5 kg robot (a model that empties the pack at once scored
+    // as a near-perfect fit), and a LiFePO4 set was read on the LiPo curve and refused.
+    let dir = tempfile::tempdir().unwrap();
+    let hover_w = |family: &str| {
+        let set = dir.path().join(family.replace('/', "-"));
+        ok(&[
+            "simulate-flights",
+            "-o",
+            set.to_str().unwrap(),
+            "--family",
+            family,
+            "--effect",
+            "none",
+            "--seed",
+            "3",
+        ]);
+        let (train, held) = (set.join("train"), set.join("heldout"));
+        let v = json(&[
+            "gap",
+            train.to_str().unwrap(),
+            "--holdout",
+            held.to_str().unwrap(),
+            "--json",
+        ]);
+        v["estimated_hover_power_w"].as_f64().unwrap()
+    };
+    for (chemistry, robot) in [("lipo", "paper"), ("lfp", "varied")] {
+        let logged = hover_w(&format!("{chemistry}/fc-10hz/{robot}"));
+        let voltage_only = hover_w(&format!("{chemistry}/vonly-5hz/{robot}"));
+        assert!(
+            (voltage_only / logged - 1.0).abs() < 0.2,
+            "{chemistry}: {voltage_only} W from the voltage, {logged} W from the current"
+        );
+    }
+}

@@ -628,19 +628,7 @@ fn charge_of(d: &BatteryData<'_>, b: &LearnedBattery) -> (f64, f64, Option<f64>)
     let n = f.time_s.len();
     let cells = f64::from(f.info.cells.max(1));
     let q_ah = charge_drawn_ah(d);
-    let rest: Vec<f64> = f
-        .phase
-        .iter()
-        .zip(&f.voltage_v)
-        .take_while(|(p, _)| !crate::flight::rotors_on(**p))
-        .map(|(_, v)| *v)
-        .collect();
-    let head = n.min(5);
-    let v_rest = if rest.is_empty() {
-        f.voltage_v[..head].iter().sum::<f64>() / head.max(1) as f64
-    } else {
-        rest.iter().sum::<f64>() / rest.len() as f64
-    } / cells;
+    let v_rest = resting_start_cell_v(f);
     // The last airborne sample: the voltage the autopilot cut off at (the knee falls fast, so
     // an average over the last samples would read it fuller than it was).
     let last = (0..n).rev().find(|&j| crate::flight::rotors_on(f.phase[j]));
@@ -652,6 +640,55 @@ fn charge_of(d: &BatteryData<'_>, b: &LearnedBattery) -> (f64, f64, Option<f64>)
             .min(MAX_SOC_AT_CUTOFF)
     });
     (q_ah, v_rest, s_end)
+}
+
+/// The voltage per cell a flight rests at before its rotors start: the mean over the samples
+/// before the first with the rotors on, else over its first five samples.
+pub fn resting_start_cell_v(f: &FlightRecord) -> f64 {
+    let cells = f64::from(f.info.cells.max(1));
+    let rest: Vec<f64> = f
+        .phase
+        .iter()
+        .zip(&f.voltage_v)
+        .take_while(|(p, _)| !crate::flight::rotors_on(**p))
+        .map(|(_, v)| *v)
+        .collect();
+    let head = f.voltage_v.len().min(5);
+    if rest.is_empty() {
+        f.voltage_v[..head].iter().sum::<f64>() / head.max(1) as f64 / cells
+    } else {
+        rest.iter().sum::<f64>() / rest.len() as f64 / cells
+    }
+}
+
+/// The prior battery for flights whose chemistry may be unknown: `chemistry`'s when given,
+/// else the prior whose full-charge voltage lies nearest the flights' highest resting voltage
+/// per cell (the level that tells LiFePO₄ from the 4.2–4.35 V chemistries), LiPo's when no
+/// flight has a voltage.
+pub fn prior_by_resting_level(
+    flights: &[&FlightRecord],
+    chemistry: Option<Chemistry>,
+) -> LearnedBattery {
+    if let Some(b) = chemistry.and_then(Chemistry::prior) {
+        return b;
+    }
+    let vmax = flights
+        .iter()
+        .filter(|f| !f.voltage_v.is_empty())
+        .map(|f| resting_start_cell_v(f))
+        .filter(|v| v.is_finite())
+        .fold(f64::NEG_INFINITY, f64::max);
+    if !vmax.is_finite() {
+        return LearnedBattery::lipo();
+    }
+    Chemistry::PRIORS
+        .iter()
+        .filter_map(|c| c.prior())
+        .min_by(|a, b| {
+            let d = |x: &LearnedBattery| (x.ocv_cell_v[OCV_KNOTS - 1] - vmax).abs();
+            d(a).total_cmp(&d(b))
+        })
+        .unwrap_or_else(LearnedBattery::lipo)
 }
 
 /// The usable capacity of a battery type: the median, over flights that started from a full
@@ -1347,6 +1384,26 @@ mod tests {
 
     /// A learned battery says what its flights could not teach, and nothing when they taught it
     /// all.
+    #[test]
+    fn the_prior_for_an_unknown_chemistry_matches_the_resting_level() {
+        // Flights resting at 4.16 V per cell read on a 4.2 V prior; the same flights scaled
+        // to 3.6 V per cell on LiFePO4's; a given chemistry wins over the level.
+        let (f, _) = flight_drawing(&LearnedBattery::lipo(), 0.8);
+        let full = |b: LearnedBattery| b.ocv_cell_v[OCV_KNOTS - 1];
+        let hi = prior_by_resting_level(&[&f], None);
+        assert!((full(hi) - 4.2).abs() < 0.1, "{}", full(hi));
+        let mut lfp = f.clone();
+        for v in &mut lfp.voltage_v {
+            *v *= 3.6 / 4.16;
+        }
+        assert!((resting_start_cell_v(&lfp) - 3.6).abs() < 1e-9);
+        let lo = prior_by_resting_level(&[&lfp], None);
+        assert_eq!(lo, Chemistry::Lifepo4.prior().unwrap());
+        let given = prior_by_resting_level(&[&lfp], Some(Chemistry::Lihv));
+        assert_eq!(given, Chemistry::Lihv.prior().unwrap());
+        assert_eq!(prior_by_resting_level(&[], None), LearnedBattery::lipo());
+    }
+
     #[test]
     fn plausibility_names_what_the_flights_did_not_cover() {
         let prior = Chemistry::Lipo.prior().unwrap();

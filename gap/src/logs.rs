@@ -292,27 +292,23 @@ fn estimate_unchecked(
                     .filter(|(i, _)| crate::flight::rotors_on(f.phase[**i]))
                     .map(|(i, v)| f.voltage_v[*i] - v)
                     .collect();
-                // A model that empties the pack before the log ends misses samples: count them
-                // at the cut-off voltage.
-                let missed = pred
-                    .index
-                    .last()
-                    .map_or(f.time_s.len(), |l| f.time_s.len() - 1 - l)
-                    / stride;
-                let all: Vec<f64> = r
-                    .iter()
-                    .copied()
-                    .chain(std::iter::repeat_n(
-                        f.voltage_v[f.voltage_v.len() - 1] - f.info.cutoff_voltage_v,
-                        missed,
-                    ))
+                // A model that empties the pack before the log ends misses samples: past its
+                // cut-off the model's voltage is the cut-off, so each missed sample counts at
+                // its own voltage less the cut-off (as the diagnosis's residuals do). Counted
+                // at the last sample's voltage instead, a flight that ended at its cut-off would
+                // score a model that empties the pack at once as a near-perfect fit.
+                let first_missed = pred.index.last().map_or(0, |l| l + stride);
+                let missed: Vec<f64> = (first_missed..f.time_s.len())
+                    .step_by(stride)
+                    .map(|i| f.voltage_v[i] - f.info.cutoff_voltage_v)
                     .collect();
+                let all: Vec<f64> = r.iter().chain(&missed).copied().collect();
                 if all.is_empty() {
                     return 0.0;
                 }
                 let m = all.iter().sum::<f64>() / all.len() as f64;
                 all.iter().map(|x| (x - m).powi(2)).sum::<f64>() / all.len() as f64
-                    + if missed > 0 { m * m } else { 0.0 }
+                    + if missed.is_empty() { 0.0 } else { m * m }
             })
             .sum()
     };
@@ -527,10 +523,15 @@ pub fn run<C: PowerCurve>(
             // is one; otherwise from the voltage's slope), then the battery with that power.
             // Without current the two are not learned jointly: a smaller power and a larger
             // resistance would explain the same voltage, and the joint fit drifts there.
+            // The prior: a measured curve, else the chemistry's (given, or the one whose full
+            // voltage matches the flights' resting level: a LiPo curve read on a LiFePO₄
+            // pack's voltages would put every sample near empty).
             let prior = BatterySet::fixed(
                 opts.measured_ocv
                     .or_else(|| train.iter().find_map(|f| f.info.measured_ocv))
-                    .unwrap_or_else(crate::battery::LearnedBattery::lipo),
+                    .unwrap_or_else(|| {
+                        crate::battery::prior_by_resting_level(train, opts.chemistry)
+                    }),
             );
             let curve = estimate_hover_power(train, &prior, opts)?;
             let model = Model {
