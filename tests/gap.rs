@@ -113,6 +113,10 @@ fn gap_eval_reports_per_family() {
     let groups = v["groups"].as_array().unwrap();
     assert!(groups.iter().any(|g| g["name"] == "lfp/lab-1hz/paper"));
     assert!(v["confusion"].is_array());
+    // With the rig the diagnosis estimates no hover power.
+    for sc in v["scenarios"].as_array().unwrap() {
+        assert!(sc["estimated_hover_power_w"].is_null(), "{sc}");
+    }
     // An unknown family is an error that says what families look like.
     let out = run(&["gap-eval", "--families", "lead-acid"]);
     assert!(!out.status.success());
@@ -655,6 +659,40 @@ fn a_voltage_only_set_without_a_rig_estimates_the_hover_power_its_current_would_
         assert!(
             (voltage_only / logged - 1.0).abs() < 0.2,
             "{chemistry}: {voltage_only} W from the voltage, {logged} W from the current"
+        );
+    }
+}
+
+#[test]
+fn gap_eval_without_the_rig_estimates_the_hover_power_from_current_or_voltage_alike() {
+    // The paper's robot flown with a current log and as a voltage-only log, diagnosed without
+    // its rig: every scenario runs, and the voltage-only estimates of the hover power lie within
+    // a fifth of the current's (seeds 0–3, the families taken in turn).
+    let v = json(&[
+        "gap-eval",
+        "--scenarios",
+        "4",
+        "--families",
+        "lipo/fc-10hz/paper,lipo/vonly-5hz/paper",
+        "--no-rig",
+        "--json",
+    ]);
+    assert_eq!(v["failed"].as_array().unwrap().len(), 0, "{}", v["failed"]);
+    let scenarios = v["scenarios"].as_array().unwrap();
+    assert_eq!(scenarios.len(), 4);
+    let hover = |logging: &str| -> Vec<f64> {
+        scenarios
+            .iter()
+            .filter(|s| s["family"].as_str().unwrap().contains(logging))
+            .map(|s| s["estimated_hover_power_w"].as_f64().unwrap())
+            .collect()
+    };
+    let (logged, voltage_only) = (hover("fc-10hz"), hover("vonly-5hz"));
+    let mean = logged.iter().sum::<f64>() / logged.len() as f64;
+    for w in &voltage_only {
+        assert!(
+            (w / mean - 1.0).abs() < 0.2,
+            "{voltage_only:?} against {logged:?}"
         );
     }
 }

@@ -45,6 +45,9 @@ pub struct Outcome {
     /// Effects outside the verdict that the flights cannot tell from it (the diagnosis's
     /// `look_alikes`), best first.
     pub look_alikes: Vec<String>,
+    /// The hover power the diagnosis estimated from the training flights, W (only without the
+    /// rig, [`diagnose_blind_without_rig`]).
+    pub estimated_hover_power_w: Option<f64>,
 }
 
 /// What the effect search saw on one scenario: each effect fitted alone, what was dropped on
@@ -123,13 +126,7 @@ pub fn diagnose_blind_with(
     rotor_count: u8,
     rule: UnexplainedRule,
 ) -> Result<Outcome, EvalError> {
-    let convert = |fs: &[Flight]| -> Result<Vec<FlightRecord>, EvalError> {
-        fs.iter()
-            .map(|f| record_from_log(f).map_err(|e| EvalError::Diagnosis(error_chain(&e))))
-            .collect()
-    };
-    let tr = convert(train)?;
-    let he = convert(heldout)?;
+    let (tr, he) = (records(train)?, records(heldout)?);
     let tr: Vec<&FlightRecord> = tr.iter().collect();
     let he: Vec<&FlightRecord> = he.iter().collect();
     let d = diagnose(
@@ -142,7 +139,44 @@ pub fn diagnose_blind_with(
         },
     )
     .map_err(|e| EvalError::Diagnosis(error_chain(&e)))?;
-    Ok(Outcome {
+    Ok(outcome_of(&d, None))
+}
+
+/// [`diagnose_blind_with`] without the rig: the baseline's hover power estimated from the
+/// training flights (their logged current, else their voltage's fall), as `hoverbench gap`
+/// does without `--params`.
+pub fn diagnose_blind_without_rig(
+    train: &[Flight],
+    heldout: &[Flight],
+    rule: UnexplainedRule,
+) -> Result<Outcome, EvalError> {
+    let (tr, he) = (records(train)?, records(heldout)?);
+    let tr: Vec<&FlightRecord> = tr.iter().collect();
+    let he: Vec<&FlightRecord> = he.iter().collect();
+    let report = gap::logs::run_from_training(
+        &tr,
+        &he,
+        &DiagnoseOptions {
+            unexplained_rule: rule,
+            ..DiagnoseOptions::default()
+        },
+    )
+    .map_err(|e| EvalError::Diagnosis(error_chain(&e)))?;
+    Ok(outcome_of(
+        &report.diagnosis,
+        report.estimated_hover_power_w,
+    ))
+}
+
+/// The flights as the diagnosis reads them.
+fn records(fs: &[Flight]) -> Result<Vec<FlightRecord>, EvalError> {
+    fs.iter()
+        .map(|f| record_from_log(f).map_err(|e| EvalError::Diagnosis(error_chain(&e))))
+        .collect()
+}
+
+fn outcome_of(d: &gap::diagnose::Diagnosis, estimated_hover_power_w: Option<f64>) -> Outcome {
+    Outcome {
         verdict: d.verdict.iter().map(|e| e.name().to_owned()).collect(),
         unexplained: d.unexplained,
         unexplained_reasons: d.unexplained_reasons.clone(),
@@ -156,13 +190,14 @@ pub fn diagnose_blind_with(
         heldout_endurance_before_pct: d.baseline.heldout.endurance_pct,
         heldout_endurance_after_pct: d.after.heldout.endurance_pct,
         heldout_headline: (d.baseline.heldout.headline(), d.after.heldout.headline()),
-        search: search_evidence(&d),
+        search: search_evidence(d),
         look_alikes: d
             .look_alikes
             .iter()
             .map(|l| l.effect.name().to_owned())
             .collect(),
-    })
+        estimated_hover_power_w,
+    }
 }
 
 fn search_evidence(d: &gap::diagnose::Diagnosis) -> SearchEvidence {

@@ -175,6 +175,9 @@ pub struct ScenarioResult {
     pub search: adapter::SearchEvidence,
     /// Effects the diagnosis lists as fitting these flights as well as its verdict.
     pub look_alikes: Vec<String>,
+    /// The hover power the diagnosis estimated from the training flights, W (a study without
+    /// the rig, [`Baseline::FromFlights`]).
+    pub estimated_hover_power_w: Option<f64>,
 }
 
 /// Where the effect search lost a library effect it should have named: the study's account,
@@ -401,6 +404,7 @@ pub fn score(truth: &Truth, family: &Family, o: &adapter::Outcome) -> ScenarioRe
             .then(|| classify_miss(kind.name(), o)),
         search: o.search.clone(),
         look_alikes: o.look_alikes.clone(),
+        estimated_hover_power_w: o.estimated_hover_power_w,
     }
 }
 
@@ -427,6 +431,30 @@ pub fn run_scenario_oracle(
     rule: UnexplainedRule,
     battery_oracle: oracle::BatteryOracle,
 ) -> Result<ScenarioResult, EvalError> {
+    run_scenario_full(seed, families, rule, battery_oracle, Baseline::Rig)
+}
+
+/// Where the diagnosis's baseline power comes from in a study.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Baseline {
+    /// The rig sweep flight-sim writes beside the flights, fitted as `hoverbench fit` would
+    /// (the default).
+    #[default]
+    Rig,
+    /// No rig: the hover power estimated from the training flights, as `hoverbench gap` does
+    /// without `--params` (a user who never put the robot's rotor on a stand).
+    FromFlights,
+}
+
+/// [`run_scenario_oracle`] with the baseline's source.
+pub fn run_scenario_full(
+    seed: u64,
+    families: &[Family],
+    rule: UnexplainedRule,
+    battery_oracle: oracle::BatteryOracle,
+    baseline: Baseline,
+) -> Result<ScenarioResult, EvalError> {
     let family = family_of(seed, families);
     let effect = draw_effect(seed);
     let mut set = generate(&family, &effect, seed);
@@ -443,7 +471,12 @@ pub fn run_scenario_oracle(
     let curve = rig_curve(&set.rig)?;
     // Blind: flights (read from their files, the hall's ceiling in their metadata), the rig
     // curve and the rotors.
-    let o = adapter::diagnose_blind_with(&train, &heldout, &curve, set.rig.rotor_count, rule)?;
+    let o = match baseline {
+        Baseline::Rig => {
+            adapter::diagnose_blind_with(&train, &heldout, &curve, set.rig.rotor_count, rule)?
+        }
+        Baseline::FromFlights => adapter::diagnose_blind_without_rig(&train, &heldout, rule)?,
+    };
     Ok(score(&set.truth, &family, &o))
 }
 
@@ -612,6 +645,8 @@ pub struct StudyOptions {
     pub threads: usize,
     /// The rule that sets the diagnosis's `unexplained` flag.
     pub unexplained_rule: UnexplainedRule,
+    /// Where the baseline's power comes from.
+    pub baseline: Baseline,
 }
 
 impl Default for StudyOptions {
@@ -621,6 +656,7 @@ impl Default for StudyOptions {
             families: Family::all(),
             threads: 2,
             unexplained_rule: UnexplainedRule::default(),
+            baseline: Baseline::Rig,
         }
     }
 }
@@ -750,11 +786,12 @@ pub fn study_with_oracle(
                         let Some(&seed) = all.get(k) else { break };
                         out.push((
                             seed,
-                            run_scenario_oracle(
+                            run_scenario_full(
                                 seed,
                                 families,
                                 opts.unexplained_rule,
                                 battery_oracle,
+                                opts.baseline,
                             ),
                         ));
                         let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
@@ -818,6 +855,7 @@ mod tests {
             unexplained_by_chi2: unexplained,
             unexplained_by_systematic: unexplained,
             look_alikes: Vec::new(),
+            estimated_hover_power_w: None,
             search: adapter::SearchEvidence {
                 within_noise: false,
                 baseline_chi2: 100.0,

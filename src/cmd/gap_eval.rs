@@ -33,6 +33,11 @@ pub struct Args {
     /// The rule that sets the diagnosis's `unexplained` flag (see `hoverbench gap --help`).
     #[arg(long, value_enum, default_value_t = super::gap::RuleArg::Systematic)]
     unexplained_rule: super::gap::RuleArg,
+    /// Diagnose without the rig sweep: the baseline's hover power estimated from the training
+    /// flights (their current, else their voltage's fall), as `hoverbench gap` does without
+    /// `--params`.
+    #[arg(long)]
+    no_rig: bool,
 }
 
 fn pct(v: Option<f64>) -> String {
@@ -73,6 +78,11 @@ pub fn run(args: Args) -> Result<()> {
         families,
         threads: args.threads,
         unexplained_rule: args.unexplained_rule.into(),
+        baseline: if args.no_rig {
+            gap_eval::Baseline::FromFlights
+        } else {
+            gap_eval::Baseline::Rig
+        },
     };
     let bar = indicatif::ProgressBar::new(args.scenarios);
     bar.set_style(
@@ -91,12 +101,17 @@ pub fn run(args: Args) -> Result<()> {
         return output::print_json(&rep);
     }
     println!(
-        "blind study: {} scenarios, seeds {}..{}, {} families ({:.1} s)",
+        "blind study: {} scenarios, seeds {}..{}, {} families ({:.1} s){}",
         rep.scenarios.len(),
         rep.seeds.0,
         rep.seeds.1,
         opts.families.len(),
-        t0.elapsed().as_secs_f64()
+        t0.elapsed().as_secs_f64(),
+        if args.no_rig {
+            "; without the rig: the hover power estimated from the training flights"
+        } else {
+            ""
+        }
     );
     println!(
         "tuning families: {}",
