@@ -9,7 +9,12 @@ use common::{data_path, json, ok, root, run, shared_path};
 /// `hoverbench simulate-flights` into `DIR/set` with the options given (family, effect, seed):
 /// the set's folder.
 fn simulate(dir: &std::path::Path, options: &[&str]) -> std::path::PathBuf {
-    let out = dir.join("set");
+    simulate_into(dir, "set", options)
+}
+
+/// [`simulate`] into `DIR/NAME`.
+fn simulate_into(dir: &std::path::Path, name: &str, options: &[&str]) -> std::path::PathBuf {
+    let out = dir.join(name);
     ok(&[&["simulate-flights", "-o", out.to_str().unwrap()], options].concat());
     out
 }
@@ -567,18 +572,18 @@ fn the_current_steps_read_a_connectors_resistance_that_the_effect_adds() {
     // steps read 50 mΩ more, within a few standard errors, and the text says what the JSON says.
     let dir = tempfile::tempdir().unwrap();
     let read = |effect: &str| {
-        let set = dir.path().join(effect.replace('=', "-"));
-        ok(&[
-            "simulate-flights",
-            "-o",
-            set.to_str().unwrap(),
-            "--family",
-            "nmc/fc-10hz/paper",
-            "--effect",
-            effect,
-            "--seed",
-            "3",
-        ]);
+        let set = simulate_into(
+            dir.path(),
+            &effect.replace('=', "-"),
+            &[
+                "--family",
+                "nmc/fc-10hz/paper",
+                "--effect",
+                effect,
+                "--seed",
+                "3",
+            ],
+        );
         let (train, held) = (set.join("train"), set.join("heldout"));
         let args = [
             "gap",
@@ -631,18 +636,11 @@ fn a_voltage_only_set_without_a_rig_estimates_the_hover_power_its_current_would_
     // as a near-perfect fit), and a LiFePO4 set was read on the LiPo curve and refused.
     let dir = tempfile::tempdir().unwrap();
     let hover_w = |family: &str| {
-        let set = dir.path().join(family.replace('/', "-"));
-        ok(&[
-            "simulate-flights",
-            "-o",
-            set.to_str().unwrap(),
-            "--family",
-            family,
-            "--effect",
-            "none",
-            "--seed",
-            "3",
-        ]);
+        let set = simulate_into(
+            dir.path(),
+            &family.replace('/', "-"),
+            &["--family", family, "--effect", "none", "--seed", "3"],
+        );
         let (train, held) = (set.join("train"), set.join("heldout"));
         let v = json(&[
             "gap",

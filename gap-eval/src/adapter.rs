@@ -129,16 +129,8 @@ pub fn diagnose_blind_with(
     let (tr, he) = (records(train)?, records(heldout)?);
     let tr: Vec<&FlightRecord> = tr.iter().collect();
     let he: Vec<&FlightRecord> = he.iter().collect();
-    let d = diagnose(
-        Model { curve, rotor_count },
-        &tr,
-        &he,
-        &DiagnoseOptions {
-            unexplained_rule: rule,
-            ..DiagnoseOptions::default()
-        },
-    )
-    .map_err(|e| EvalError::Diagnosis(error_chain(&e)))?;
+    let d = diagnose(Model { curve, rotor_count }, &tr, &he, &options(rule))
+        .map_err(|e| EvalError::Diagnosis(error_chain(&e)))?;
     Ok(outcome_of(&d, None))
 }
 
@@ -153,19 +145,20 @@ pub fn diagnose_blind_without_rig(
     let (tr, he) = (records(train)?, records(heldout)?);
     let tr: Vec<&FlightRecord> = tr.iter().collect();
     let he: Vec<&FlightRecord> = he.iter().collect();
-    let report = gap::logs::run_from_training(
-        &tr,
-        &he,
-        &DiagnoseOptions {
-            unexplained_rule: rule,
-            ..DiagnoseOptions::default()
-        },
-    )
-    .map_err(|e| EvalError::Diagnosis(error_chain(&e)))?;
+    let report = gap::logs::run_from_training(&tr, &he, &options(rule))
+        .map_err(|e| EvalError::Diagnosis(error_chain(&e)))?;
     Ok(outcome_of(
         &report.diagnosis,
         report.estimated_hover_power_w,
     ))
+}
+
+/// The diagnosis's default options with the rule that sets `unexplained`.
+fn options(rule: UnexplainedRule) -> DiagnoseOptions {
+    DiagnoseOptions {
+        unexplained_rule: rule,
+        ..DiagnoseOptions::default()
+    }
 }
 
 /// The flights as the diagnosis reads them.

@@ -646,13 +646,7 @@ fn charge_of(d: &BatteryData<'_>, b: &LearnedBattery) -> (f64, f64, Option<f64>)
 /// before the first with the rotors on, else over its first five samples.
 pub fn resting_start_cell_v(f: &FlightRecord) -> f64 {
     let cells = f64::from(f.info.cells.max(1));
-    let rest: Vec<f64> = f
-        .phase
-        .iter()
-        .zip(&f.voltage_v)
-        .take_while(|(p, _)| !crate::flight::rotors_on(**p))
-        .map(|(_, v)| *v)
-        .collect();
+    let rest = f.resting_voltages_v();
     let head = f.voltage_v.len().min(5);
     if rest.is_empty() {
         f.voltage_v[..head].iter().sum::<f64>() / head.max(1) as f64 / cells

@@ -79,6 +79,13 @@ pub struct FlightRecord {
 }
 
 impl FlightRecord {
+    /// The voltages logged before the rotors first start (the pack at rest), V; empty when the
+    /// log starts in the air.
+    pub fn resting_voltages_v(&self) -> &[f64] {
+        let n = self.phase.iter().take_while(|p| !rotors_on(**p)).count();
+        &self.voltage_v[..n.min(self.voltage_v.len())]
+    }
+
     /// Duration of the log, s.
     pub fn duration_s(&self) -> f64 {
         match (self.time_s.first(), self.time_s.last()) {

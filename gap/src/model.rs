@@ -460,13 +460,7 @@ pub(crate) enum StartVoltage {
 
 impl StartVoltage {
     fn of(f: &FlightRecord) -> Self {
-        let rest: Vec<f64> = f
-            .phase
-            .iter()
-            .zip(&f.voltage_v)
-            .take_while(|(p, _)| !crate::flight::rotors_on(**p))
-            .map(|(_, v)| *v)
-            .collect();
+        let rest = f.resting_voltages_v();
         if rest.is_empty() {
             let head = f.voltage_v.len().min(5);
             if head == 0 {
