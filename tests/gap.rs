@@ -19,6 +19,19 @@ fn simulate_into(dir: &std::path::Path, name: &str, options: &[&str]) -> std::pa
     out
 }
 
+/// `hoverbench gap` on a simulated set's training flights against its held-out ones, with
+/// `extra`: its standard output.
+fn gap_on_set(set: &std::path::Path, extra: &[&str]) -> String {
+    let (train, held) = (set.join("train"), set.join("heldout"));
+    let args = [
+        "gap",
+        train.to_str().unwrap(),
+        "--holdout",
+        held.to_str().unwrap(),
+    ];
+    ok(&[&args[..], extra].concat())
+}
+
 /// The rig sweep of a simulated set fitted into `DIR/params.toml`, as a bench's would be.
 fn fit_rig(dir: &std::path::Path, set: &std::path::Path) -> std::path::PathBuf {
     let params = dir.join("params.toml");
@@ -584,16 +597,8 @@ fn the_current_steps_read_a_connectors_resistance_that_the_effect_adds() {
                 "3",
             ],
         );
-        let (train, held) = (set.join("train"), set.join("heldout"));
-        let args = [
-            "gap",
-            train.to_str().unwrap(),
-            "--holdout",
-            held.to_str().unwrap(),
-        ];
-        let v = json(&[&args[..], &["--json"]].concat());
-        let text = ok(&args);
-        (v, text)
+        let v: Value = serde_json::from_str(&gap_on_set(&set, &["--json"])).unwrap();
+        (v, gap_on_set(&set, &[]))
     };
     let (clean, clean_text) = read("none");
     let (worn, _) = read("internal_resistance=0.05");
@@ -641,14 +646,7 @@ fn a_voltage_only_set_without_a_rig_estimates_the_hover_power_its_current_would_
             &family.replace('/', "-"),
             &["--family", family, "--effect", "none", "--seed", "3"],
         );
-        let (train, held) = (set.join("train"), set.join("heldout"));
-        let v = json(&[
-            "gap",
-            train.to_str().unwrap(),
-            "--holdout",
-            held.to_str().unwrap(),
-            "--json",
-        ]);
+        let v: Value = serde_json::from_str(&gap_on_set(&set, &["--json"])).unwrap();
         v["estimated_hover_power_w"].as_f64().unwrap()
     };
     for (chemistry, robot) in [("lipo", "paper"), ("lfp", "varied")] {
