@@ -1376,8 +1376,6 @@ mod tests {
         (f, current_a)
     }
 
-    /// A learned battery says what its flights could not teach, and nothing when they taught it
-    /// all.
     #[test]
     fn the_prior_for_an_unknown_chemistry_matches_the_resting_level() {
         // Flights resting at 4.16 V per cell read on a 4.2 V prior; the same flights scaled
@@ -1398,6 +1396,8 @@ mod tests {
         assert_eq!(prior_by_resting_level(&[], None), LearnedBattery::lipo());
     }
 
+    /// A learned battery says what its flights could not teach, and nothing when they taught it
+    /// all.
     #[test]
     fn plausibility_names_what_the_flights_did_not_cover() {
         let prior = Chemistry::Lipo.prior().unwrap();
