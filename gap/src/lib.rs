@@ -26,8 +26,11 @@
 //!   share beyond their own scatter ([`systematic`]); with
 //!   [`diagnose::UnexplainedRule::Chi2`], χ² left against fixed noise floors or an unstable
 //!   effect.
+//! - [`steps::step_resistances`]: the series resistance each pack's current steps show
+//!   (reported beside the learned battery; no part of a verdict or prediction).
 //! - [`logs::run`]: the same with a rig baseline or, for a robot nobody characterised, a hover
-//!   power estimated from the training flights.
+//!   power estimated from the training flights (their current, else their voltage's fall on a
+//!   prior chosen by their resting level, [`battery::prior_by_resting_level`]).
 //!
 //! ```
 //! use std::path::Path;

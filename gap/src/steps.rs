@@ -16,7 +16,7 @@
 //! Used as the baseline's resistance (the pack's own, less what lies above the healthy band)
 //! it made the baseline's held-out endurance better but did not generalise to the verdicts:
 //! on the blind study's held-out families the strict verdicts went 181 → 178 of 375 (issue 9,
-//! session 25, [the evidence](../../docs/evidence/gap.md)).
+//! session 25; `docs/evidence/gap.md`).
 //!
 //! ```
 //! use gap::flight::{FlightInfo, FlightRecord, Phase};
